@@ -1,0 +1,7 @@
+//! The autonomy side of splatloop: everything a real robot would run, with no simulator in it.
+//!
+//! It knows cameras, images and poses in the conventions of DESIGN.md; the host (`sim/`)
+//! feeds it frames and applies what it decides. It never depends on MuJoCo.
+
+pub mod camera;
+pub mod math;

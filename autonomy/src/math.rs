@@ -1,0 +1,16 @@
+//! Names for the geometry types, so the rest of the code reads as geometry.
+
+/// Scalar type of poses and geometry.
+pub type Real = f64;
+/// A point in 3D.
+pub type Point3 = nalgebra::Point3<Real>;
+/// A vector in 3D.
+pub type Vector3 = nalgebra::Vector3<Real>;
+/// A rigid transform; name values by their spaces, e.g. `world_from_camera`.
+pub type Isometry3 = nalgebra::Isometry3<Real>;
+/// A rotation in 3D.
+pub type Rotation3 = nalgebra::Rotation3<Real>;
+/// A unit quaternion.
+pub type UnitQuaternion = nalgebra::UnitQuaternion<Real>;
+/// A 3x3 matrix.
+pub type Matrix3 = nalgebra::Matrix3<Real>;

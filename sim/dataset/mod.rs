@@ -1,0 +1,69 @@
+//! The episode folder of DESIGN.md: TUM RGB-D files, camera.json, nerfstudio transforms.json,
+//! episode.json. Written while an episode runs and read back for evaluation and tests.
+
+mod images;
+mod reader;
+mod writer;
+
+pub use images::{read_depth_png, read_rgb_png, write_depth_png, write_rgb_png};
+pub use reader::{Dataset, DatasetFrame};
+pub use writer::DatasetWriter;
+
+use autonomy::camera::Intrinsics;
+use serde::{Deserialize, Serialize};
+
+/// Depth PNG units: 5000 per metre (TUM), so 1 unit = 0.2 mm and the range tops out at 13.1 m.
+pub const DEPTH_SCALE: f64 = 5000.0;
+
+/// `camera.json`: the intrinsics every frame shares.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CameraFile {
+    /// K as rows.
+    #[serde(rename = "K")]
+    pub k: [[f64; 3]; 3],
+    /// Image width, pixels.
+    #[serde(rename = "W")]
+    pub width: u32,
+    /// Image height, pixels.
+    #[serde(rename = "H")]
+    pub height: u32,
+    /// Depth PNG units per metre.
+    pub depth_scale: f64,
+    /// Depth beyond this reads 0.
+    pub max_range: f64,
+    /// Convention reminder for readers of the file.
+    pub convention: String,
+}
+
+impl CameraFile {
+    /// Describes `intrinsics`.
+    pub fn new(intrinsics: &Intrinsics, max_range: f64) -> Self {
+        let m = intrinsics.matrix();
+        CameraFile {
+            k: [
+                [m[(0, 0)], m[(0, 1)], m[(0, 2)]],
+                [m[(1, 0)], m[(1, 1)], m[(1, 2)]],
+                [m[(2, 0)], m[(2, 1)], m[(2, 2)]],
+            ],
+            width: intrinsics.width,
+            height: intrinsics.height,
+            depth_scale: DEPTH_SCALE,
+            max_range,
+            convention: "OpenCV optical frame (x right, y down, z forward); pixel centres at \
+                         integer coordinates; planar depth; poses are world_from_camera"
+                .into(),
+        }
+    }
+
+    /// The intrinsics back.
+    pub fn intrinsics(&self) -> Intrinsics {
+        Intrinsics {
+            fx: self.k[0][0],
+            fy: self.k[1][1],
+            cx: self.k[0][2],
+            cy: self.k[1][2],
+            width: self.width,
+            height: self.height,
+        }
+    }
+}

@@ -1,0 +1,95 @@
+//! The host's error type: every failure a user can cause, each saying what to do about it.
+
+use std::path::PathBuf;
+
+/// What went wrong in the host, phrased for the person who ran it.
+#[derive(Debug, thiserror::Error)]
+pub enum SimError {
+    /// A file the user named does not exist.
+    #[error("{what} not found: {path} (check the path; relative paths are taken from the current directory)")]
+    MissingFile {
+        /// What the file was supposed to be ("world", "controls file").
+        what: &'static str,
+        /// The path as given.
+        path: PathBuf,
+    },
+    /// MuJoCo refused the MJCF; its own message is kept.
+    #[error("MuJoCo could not load {path}: {message}")]
+    BadModel {
+        /// The MJCF file.
+        path: PathBuf,
+        /// MuJoCo's message.
+        message: String,
+    },
+    /// A name that the host needs is not in the model.
+    #[error("{kind} '{name}' not found in {path}: {hint}")]
+    MissingName {
+        /// "body", "camera", "actuator", ...
+        kind: &'static str,
+        /// The name looked up.
+        name: String,
+        /// The model file.
+        path: PathBuf,
+        /// What the user should do.
+        hint: &'static str,
+    },
+    /// A setting outside the range the host supports.
+    #[error("invalid {what}: {detail}")]
+    InvalidArgument {
+        /// The setting.
+        what: &'static str,
+        /// Why it is refused and what is allowed.
+        detail: String,
+    },
+    /// The simulation produced NaN/Inf or exploded.
+    #[error("simulation became unstable at t = {time:.3} s ({detail}); reduce the timestep or check the model")]
+    Unstable {
+        /// Simulated time of the failure.
+        time: f64,
+        /// MuJoCo's warning.
+        detail: String,
+    },
+    /// No EGL display could give us an OpenGL context.
+    #[error("no EGL device can render offscreen: {0}. Install Mesa's EGL (libegl-mesa0, libgl1-mesa-dri; scripts/setup.sh does) or an NVIDIA driver")]
+    Egl(String),
+    /// A malformed controls file or pattern.
+    #[error("bad controls {source_name}: {detail}")]
+    BadControls {
+        /// The file or pattern.
+        source_name: String,
+        /// What is wrong, with the line.
+        detail: String,
+    },
+    /// Reading or writing a file failed.
+    #[error("{action} {path}: {source}")]
+    Io {
+        /// "cannot write", "cannot read".
+        action: &'static str,
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// A dataset on disk is not what the reader expects.
+    #[error("malformed dataset file {path}: {detail}")]
+    BadDataset {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        detail: String,
+    },
+}
+
+/// Shorthand for host results.
+pub type Result<T, E = SimError> = std::result::Result<T, E>;
+
+impl SimError {
+    /// Wraps an I/O error with the file it concerns.
+    pub fn io(action: &'static str, path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        SimError::Io {
+            action,
+            path: path.into(),
+            source,
+        }
+    }
+}

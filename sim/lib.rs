@@ -1,0 +1,16 @@
+//! splatloop's host: steps a MuJoCo unicycle robot, renders its RGB-D camera offscreen through
+//! EGL, and writes datasets with exact poses. The autonomy side lives in the `autonomy` crate;
+//! data flows one way, sim -> autonomy -> sim.
+
+pub mod bench;
+pub mod camera;
+pub mod controls;
+pub mod dataset;
+pub mod egl;
+pub mod error;
+pub mod mujoco;
+pub mod record;
+pub mod robot;
+pub mod world;
+
+pub use error::{Result, SimError};

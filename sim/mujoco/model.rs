@@ -1,0 +1,357 @@
+//! `mjModel`: loading an MJCF, name lookups, and read access to the arrays the host needs.
+
+use super::sys;
+use crate::error::{Result, SimError};
+use std::ffi::{CStr, CString};
+use std::os::raw::c_char;
+use std::path::{Path, PathBuf};
+use std::ptr::NonNull;
+
+/// Kinds of named MuJoCo objects we look up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ObjKind {
+    /// A body.
+    Body,
+    /// A joint.
+    Joint,
+    /// A geom.
+    Geom,
+    /// A site.
+    Site,
+    /// A camera.
+    Camera,
+    /// An actuator.
+    Actuator,
+}
+
+impl ObjKind {
+    fn raw(self) -> sys::mjtObj {
+        match self {
+            ObjKind::Body => sys::mjtObj::mjOBJ_BODY,
+            ObjKind::Joint => sys::mjtObj::mjOBJ_JOINT,
+            ObjKind::Geom => sys::mjtObj::mjOBJ_GEOM,
+            ObjKind::Site => sys::mjtObj::mjOBJ_SITE,
+            ObjKind::Camera => sys::mjtObj::mjOBJ_CAMERA,
+            ObjKind::Actuator => sys::mjtObj::mjOBJ_ACTUATOR,
+        }
+    }
+
+    /// The word a person uses for this kind.
+    pub fn label(self) -> &'static str {
+        match self {
+            ObjKind::Body => "body",
+            ObjKind::Joint => "joint",
+            ObjKind::Geom => "geom",
+            ObjKind::Site => "site",
+            ObjKind::Camera => "camera",
+            ObjKind::Actuator => "actuator",
+        }
+    }
+
+    fn count(self, m: &sys::mjModel) -> i32 {
+        match self {
+            ObjKind::Body => m.nbody,
+            ObjKind::Joint => m.njnt,
+            ObjKind::Geom => m.ngeom,
+            ObjKind::Site => m.nsite,
+            ObjKind::Camera => m.ncam,
+            ObjKind::Actuator => m.nu,
+        }
+    }
+}
+
+/// Geom shapes the host distinguishes (ground vs. obstacles).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GeomType {
+    /// An infinite plane (floors).
+    Plane,
+    /// A height field (terrain).
+    HeightField,
+    /// Anything else: boxes, meshes, cylinders, ...
+    Solid,
+}
+
+/// A compiled MuJoCo model, owned; freed on drop.
+pub struct Model {
+    raw: NonNull<sys::mjModel>,
+    path: PathBuf,
+}
+
+// SAFETY: mjModel is a plain heap block with no thread affinity; we only mutate it through
+// `&mut self`.
+unsafe impl Send for Model {}
+// SAFETY: shared access only reads the block.
+unsafe impl Sync for Model {}
+
+impl Drop for Model {
+    fn drop(&mut self) {
+        // SAFETY: raw came from mj_loadXML and is freed exactly once here.
+        unsafe { sys::mj_deleteModel(self.raw.as_ptr()) }
+    }
+}
+
+impl std::fmt::Debug for Model {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Model").field("path", &self.path).finish()
+    }
+}
+
+impl Model {
+    /// Compiles an MJCF file; MuJoCo's own message comes back in the error.
+    pub fn from_xml(path: &Path) -> Result<Self> {
+        super::install_log_hooks();
+        if !path.is_file() {
+            return Err(SimError::MissingFile {
+                what: "MJCF model",
+                path: path.to_owned(),
+            });
+        }
+        let c_path = CString::new(path.to_string_lossy().as_bytes()).map_err(|_| {
+            SimError::InvalidArgument {
+                what: "model path",
+                detail: "contains a NUL byte".into(),
+            }
+        })?;
+        let mut message = [0 as c_char; 1024];
+        // SAFETY: c_path is NUL-terminated; the error buffer is writable for its stated length.
+        let raw = unsafe {
+            sys::mj_loadXML(
+                c_path.as_ptr(),
+                std::ptr::null(),
+                message.as_mut_ptr(),
+                message.len() as i32,
+            )
+        };
+        match NonNull::new(raw) {
+            Some(raw) => Ok(Model {
+                raw,
+                path: path.to_owned(),
+            }),
+            None => {
+                // SAFETY: MuJoCo NUL-terminates the message inside the buffer.
+                let text = unsafe { CStr::from_ptr(message.as_ptr()) }
+                    .to_string_lossy()
+                    .trim()
+                    .to_owned();
+                Err(SimError::BadModel {
+                    path: path.to_owned(),
+                    message: if text.is_empty() {
+                        "unknown error".into()
+                    } else {
+                        text
+                    },
+                })
+            }
+        }
+    }
+
+    /// The MJCF file the model came from.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    pub(crate) fn raw(&self) -> &sys::mjModel {
+        // SAFETY: raw is valid for the lifetime of self.
+        unsafe { self.raw.as_ref() }
+    }
+
+    pub(crate) fn raw_ptr(&self) -> *const sys::mjModel {
+        self.raw.as_ptr()
+    }
+
+    /// Looks up an object by name; the error names the kind, the name and the file.
+    pub fn id(&self, kind: ObjKind, name: &str, hint: &'static str) -> Result<usize> {
+        let missing = || SimError::MissingName {
+            kind: kind.label(),
+            name: name.to_owned(),
+            path: self.path.clone(),
+            hint,
+        };
+        let c_name = CString::new(name).map_err(|_| missing())?;
+        // SAFETY: the model pointer is valid and c_name is NUL-terminated.
+        let id = unsafe { sys::mj_name2id(self.raw_ptr(), kind.raw() as i32, c_name.as_ptr()) };
+        if id < 0 {
+            Err(missing())
+        } else {
+            Ok(id as usize)
+        }
+    }
+
+    /// The name of object `id` of `kind`, if it has one.
+    pub fn name(&self, kind: ObjKind, id: usize) -> Option<String> {
+        if id >= kind.count(self.raw()) as usize {
+            return None;
+        }
+        // SAFETY: id is in range, checked above.
+        let ptr = unsafe { sys::mj_id2name(self.raw_ptr(), kind.raw() as i32, id as i32) };
+        if ptr.is_null() {
+            None
+        } else {
+            // SAFETY: MuJoCo returns a NUL-terminated name inside the model.
+            Some(
+                unsafe { CStr::from_ptr(ptr) }
+                    .to_string_lossy()
+                    .into_owned(),
+            )
+        }
+    }
+
+    /// Physics timestep in seconds.
+    pub fn timestep(&self) -> f64 {
+        self.raw().opt.timestep
+    }
+
+    /// Number of geoms.
+    pub fn geom_count(&self) -> usize {
+        self.raw().ngeom as usize
+    }
+
+    /// Number of bodies.
+    pub fn body_count(&self) -> usize {
+        self.raw().nbody as usize
+    }
+
+    /// Number of generalised positions.
+    pub fn nq(&self) -> usize {
+        self.raw().nq as usize
+    }
+
+    /// Number of degrees of freedom.
+    pub fn nv(&self) -> usize {
+        self.raw().nv as usize
+    }
+
+    /// Number of actuators.
+    pub fn nu(&self) -> usize {
+        self.raw().nu as usize
+    }
+
+    /// The body a geom is attached to.
+    pub fn geom_body(&self, geom: usize) -> usize {
+        let m = self.raw();
+        array(m.geom_bodyid, m.ngeom)[geom] as usize
+    }
+
+    /// Shape class of a geom.
+    pub fn geom_type(&self, geom: usize) -> GeomType {
+        let m = self.raw();
+        match array(m.geom_type, m.ngeom)[geom] {
+            t if t == sys::mjtGeom::mjGEOM_PLANE as i32 => GeomType::Plane,
+            t if t == sys::mjtGeom::mjGEOM_HFIELD as i32 => GeomType::HeightField,
+            _ => GeomType::Solid,
+        }
+    }
+
+    /// Size parameters of a geom (radius first for spheres and cylinders).
+    pub fn geom_size(&self, geom: usize) -> [f64; 3] {
+        let m = self.raw();
+        let s = array(m.geom_size, 3 * m.ngeom);
+        [s[3 * geom], s[3 * geom + 1], s[3 * geom + 2]]
+    }
+
+    /// Position of a body in its parent's frame.
+    pub fn body_offset(&self, body: usize) -> [f64; 3] {
+        let m = self.raw();
+        let p = array(m.body_pos, 3 * m.nbody);
+        [p[3 * body], p[3 * body + 1], p[3 * body + 2]]
+    }
+
+    /// Visibility group of a geom (0..5).
+    pub fn geom_group(&self, geom: usize) -> i32 {
+        let m = self.raw();
+        array(m.geom_group, m.ngeom)[geom]
+    }
+
+    /// Whether `body` is `ancestor` or lies below it in the kinematic tree.
+    pub fn body_is_in_subtree(&self, body: usize, ancestor: usize) -> bool {
+        let m = self.raw();
+        let parents = array(m.body_parentid, m.nbody);
+        let mut b = body;
+        loop {
+            if b == ancestor {
+                return true;
+            }
+            if b == 0 {
+                return false;
+            }
+            b = parents[b] as usize;
+        }
+    }
+
+    /// Vertical field of view of a camera, radians.
+    pub fn camera_fovy(&self, camera: usize) -> f64 {
+        let m = self.raw();
+        array(m.cam_fovy, m.ncam)[camera].to_radians()
+    }
+
+    /// Address in qpos of a joint's first coordinate.
+    pub fn joint_qpos_address(&self, joint: usize) -> usize {
+        let m = self.raw();
+        array(m.jnt_qposadr, m.njnt)[joint] as usize
+    }
+
+    /// Address in qvel of a joint's first degree of freedom.
+    pub fn joint_dof_address(&self, joint: usize) -> usize {
+        let m = self.raw();
+        array(m.jnt_dofadr, m.njnt)[joint] as usize
+    }
+
+    /// Whether a joint is a free joint (7 qpos, 6 dof).
+    pub fn joint_is_free(&self, joint: usize) -> bool {
+        let m = self.raw();
+        array(m.jnt_type, m.njnt)[joint] == sys::mjtJoint::mjJNT_FREE as i32
+    }
+
+    /// The body a joint moves.
+    pub fn joint_body(&self, joint: usize) -> usize {
+        let m = self.raw();
+        array(m.jnt_bodyid, m.njnt)[joint] as usize
+    }
+
+    /// The joint an actuator drives, if it drives a joint.
+    pub fn actuator_joint(&self, actuator: usize) -> Option<usize> {
+        let m = self.raw();
+        let trn_type = array(m.actuator_trntype, m.nu)[actuator];
+        if trn_type != sys::mjtTrn::mjTRN_JOINT as i32 {
+            return None;
+        }
+        Some(array(m.actuator_trnid, 2 * m.nu)[2 * actuator] as usize)
+    }
+
+    /// Near and far clipping distances of the OpenGL projection, metres.
+    pub fn clip_planes(&self) -> (f64, f64) {
+        let m = self.raw();
+        let extent = m.stat.extent;
+        (
+            f64::from(m.vis.map.znear) * extent,
+            f64::from(m.vis.map.zfar) * extent,
+        )
+    }
+
+    /// Prepares the model for an offscreen sensor of `width` x `height`: the offscreen buffer
+    /// must be at least that large, and multisampling is turned off (llvmpipe is 10x faster).
+    pub fn configure_offscreen(&mut self, width: u32, height: u32) {
+        // SAFETY: &mut self gives exclusive access to the model block.
+        let m = unsafe { self.raw.as_mut() };
+        m.vis.global.offwidth = m.vis.global.offwidth.max(width as i32);
+        m.vis.global.offheight = m.vis.global.offheight.max(height as i32);
+        m.vis.quality.offsamples = 0;
+    }
+
+    /// Sets the near clipping plane as a distance in metres, so depth starts close to the lens.
+    pub fn set_near_clip(&mut self, near: f64) {
+        // SAFETY: &mut self gives exclusive access to the model block.
+        let m = unsafe { self.raw.as_mut() };
+        m.vis.map.znear = (near / m.stat.extent) as f32;
+    }
+}
+
+/// Views a model array of `count` elements; MuJoCo allocates every array at load time.
+fn array<'a, T>(ptr: *const T, count: i32) -> &'a [T] {
+    if ptr.is_null() || count <= 0 {
+        return &[];
+    }
+    // SAFETY: MuJoCo allocates `count` elements at `ptr` for the model's lifetime, which
+    // outlives every borrow handed out through `&Model`.
+    unsafe { std::slice::from_raw_parts(ptr, count as usize) }
+}

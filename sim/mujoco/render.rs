@@ -1,0 +1,247 @@
+//! `mjv_` scene + `mjr_` OpenGL context: renders a model camera into client buffers.
+//!
+//! Needs an OpenGL context current on the calling thread ([`crate::egl::EglContext`]).
+
+use super::sys;
+use super::{Data, Model};
+use crate::egl::EglContext;
+use crate::error::{Result, SimError};
+use std::sync::Arc;
+
+/// Rendering features of the sensor; all off by default because they cost 10x on llvmpipe
+/// and a real depth camera sees none of them.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RenderFlags {
+    /// Shadow mapping.
+    pub shadows: bool,
+    /// Planar reflections.
+    pub reflections: bool,
+    /// The skybox behind everything.
+    pub skybox: bool,
+}
+
+/// A scene and an OpenGL context for one model at one resolution.
+pub struct SceneRenderer {
+    model: Arc<Model>,
+    scene: Box<sys::mjvScene>,
+    context: Box<sys::mjrContext>,
+    option: sys::mjvOption,
+    camera: sys::mjvCamera,
+    perturb: sys::mjvPerturb,
+    width: u32,
+    height: u32,
+    rgb_scratch: Vec<u8>,
+}
+
+impl Drop for SceneRenderer {
+    fn drop(&mut self) {
+        // SAFETY: scene and context were made by mjv_makeScene/mjr_makeContext and are freed
+        // once; the owner keeps the GL context alive longer than this renderer.
+        unsafe {
+            sys::mjr_freeContext(self.context.as_mut());
+            sys::mjv_freeScene(self.scene.as_mut());
+        }
+    }
+}
+
+impl SceneRenderer {
+    /// Allocates the scene and the GL resources of `model` (textures, meshes, the offscreen
+    /// framebuffer). The model's offscreen buffer must already be at least `width` x `height`
+    /// ([`Model::configure_offscreen`]).
+    pub fn new(
+        model: Arc<Model>,
+        width: u32,
+        height: u32,
+        flags: RenderFlags,
+        _gl: &EglContext,
+    ) -> Result<Self> {
+        let vis = &model.raw().vis;
+        if width as i32 > vis.global.offwidth || height as i32 > vis.global.offheight {
+            return Err(SimError::InvalidArgument {
+                what: "resolution",
+                detail: format!(
+                    "{width}x{height} exceeds the model's offscreen buffer {}x{}",
+                    vis.global.offwidth, vis.global.offheight
+                ),
+            });
+        }
+        // SAFETY: mjvScene, mjrContext, mjvOption, mjvCamera and mjvPerturb are plain C structs
+        // that their mj*_default* functions fully initialise; make* allocate against a valid
+        // model while the caller's GL context is current (the `_gl` borrow).
+        unsafe {
+            let mut scene: Box<sys::mjvScene> = Box::default();
+            sys::mjv_defaultScene(scene.as_mut());
+            sys::mjv_makeScene(model.raw_ptr(), scene.as_mut(), 4000);
+            let mut context: Box<sys::mjrContext> = Box::default();
+            sys::mjr_defaultContext(context.as_mut());
+            sys::mjr_makeContext(
+                model.raw_ptr(),
+                context.as_mut(),
+                sys::mjtFontScale::mjFONTSCALE_50 as i32,
+            );
+            sys::mjr_setBuffer(sys::mjtFramebuffer::mjFB_OFFSCREEN as i32, context.as_mut());
+            if context.currentBuffer != sys::mjtFramebuffer::mjFB_OFFSCREEN as i32 {
+                return Err(SimError::Egl(
+                    "the OpenGL context has no offscreen framebuffer".into(),
+                ));
+            }
+            let mut option = sys::mjvOption::default();
+            sys::mjv_defaultOption(&mut option);
+            let mut camera = sys::mjvCamera::default();
+            sys::mjv_defaultCamera(&mut camera);
+            camera.type_ = sys::mjtCamera::mjCAMERA_FIXED as i32;
+            let mut perturb = sys::mjvPerturb::default();
+            sys::mjv_defaultPerturb(&mut perturb);
+
+            scene.flags[sys::mjtRndFlag::mjRND_SHADOW as usize] = flags.shadows as u8;
+            scene.flags[sys::mjtRndFlag::mjRND_REFLECTION as usize] = flags.reflections as u8;
+            scene.flags[sys::mjtRndFlag::mjRND_SKYBOX as usize] = flags.skybox as u8;
+            scene.flags[sys::mjtRndFlag::mjRND_FOG as usize] = 0;
+            scene.flags[sys::mjtRndFlag::mjRND_HAZE as usize] = 0;
+            Ok(SceneRenderer {
+                model,
+                scene,
+                context,
+                option,
+                camera,
+                perturb,
+                width,
+                height,
+                rgb_scratch: vec![0; (width * height * 3) as usize],
+            })
+        }
+    }
+
+    /// Image width in pixels.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Image height in pixels.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    fn viewport(&self) -> sys::mjrRect {
+        sys::mjrRect {
+            left: 0,
+            bottom: 0,
+            width: self.width as i32,
+            height: self.height as i32,
+        }
+    }
+
+    fn draw(&mut self, data: &Data, camera: usize) {
+        self.camera.fixedcamid = camera as i32;
+        let viewport = self.viewport();
+        // SAFETY: every struct was initialised in `new`; model and data belong together
+        // (checked by the caller through Arc identity); the GL context is current.
+        unsafe {
+            sys::mjv_updateScene(
+                self.model.raw_ptr(),
+                data.raw_ptr() as *mut sys::mjData,
+                &self.option,
+                &self.perturb,
+                &mut self.camera,
+                sys::mjtCatBit::mjCAT_ALL as i32,
+                self.scene.as_mut(),
+            );
+            sys::mjr_render(viewport, self.scene.as_mut(), self.context.as_ref());
+        }
+    }
+
+    fn check_same_model(&self, data: &Data, camera: usize) -> Result<()> {
+        if !Arc::ptr_eq(&self.model, data.model()) {
+            return Err(SimError::InvalidArgument {
+                what: "render",
+                detail: "the data belongs to another model than the renderer".into(),
+            });
+        }
+        if camera >= self.model.raw().ncam as usize {
+            return Err(SimError::InvalidArgument {
+                what: "camera",
+                detail: format!("camera id {camera} out of range"),
+            });
+        }
+        Ok(())
+    }
+
+    /// Renders `camera` into `rgb` (W*H*3) and the raw OpenGL depth buffer `depth` (W*H, in
+    /// [0, 1]), both with OpenGL's bottom-to-top row order.
+    pub fn render_raw(
+        &mut self,
+        data: &Data,
+        camera: usize,
+        rgb: &mut [u8],
+        depth: &mut [f32],
+    ) -> Result<()> {
+        self.check_same_model(data, camera)?;
+        let pixels = (self.width * self.height) as usize;
+        if rgb.len() != 3 * pixels || depth.len() != pixels {
+            return Err(SimError::InvalidArgument {
+                what: "render buffers",
+                detail: format!("need {} RGB bytes and {pixels} depths", 3 * pixels),
+            });
+        }
+        self.draw(data, camera);
+        // SAFETY: buffer sizes were checked against the viewport above.
+        unsafe {
+            sys::mjr_readPixels(
+                rgb.as_mut_ptr(),
+                depth.as_mut_ptr(),
+                self.viewport(),
+                self.context.as_ref(),
+            )
+        };
+        Ok(())
+    }
+
+    /// Renders the geom id seen at each pixel (bottom-to-top rows); -1 where nothing is.
+    pub fn render_geom_ids(&mut self, data: &Data, camera: usize, ids: &mut [i32]) -> Result<()> {
+        self.check_same_model(data, camera)?;
+        let pixels = (self.width * self.height) as usize;
+        if ids.len() != pixels {
+            return Err(SimError::InvalidArgument {
+                what: "render buffers",
+                detail: format!("need {pixels} ids"),
+            });
+        }
+        let segment = sys::mjtRndFlag::mjRND_SEGMENT as usize;
+        let idcolor = sys::mjtRndFlag::mjRND_IDCOLOR as usize;
+        self.scene.flags[segment] = 1;
+        self.scene.flags[idcolor] = 1;
+        self.draw(data, camera);
+        self.scene.flags[segment] = 0;
+        self.scene.flags[idcolor] = 0;
+        let mut rgb = std::mem::take(&mut self.rgb_scratch);
+        // SAFETY: the scratch buffer holds W*H*3 bytes; no depth is requested.
+        unsafe {
+            sys::mjr_readPixels(
+                rgb.as_mut_ptr(),
+                std::ptr::null_mut(),
+                self.viewport(),
+                self.context.as_ref(),
+            )
+        };
+        // The colour encodes 1 + the index into the scene's geom list.
+        let scene_geoms = self.scene_geoms();
+        for (id, px) in ids.iter_mut().zip(rgb.chunks_exact(3)) {
+            let segid = u32::from(px[0]) | u32::from(px[1]) << 8 | u32::from(px[2]) << 16;
+            *id = match scene_geoms.get((segid as usize).wrapping_sub(1)) {
+                Some(g) if g.objtype == sys::mjtObj::mjOBJ_GEOM as i32 => g.objid,
+                _ => -1,
+            };
+        }
+        self.rgb_scratch = rgb;
+        Ok(())
+    }
+
+    fn scene_geoms(&self) -> &[sys::mjvGeom] {
+        let n = self.scene.ngeom.max(0) as usize;
+        if n == 0 || self.scene.geoms.is_null() {
+            return &[];
+        }
+        // SAFETY: mjv_updateScene filled `ngeom` entries of the scene's geom array.
+        unsafe { std::slice::from_raw_parts(self.scene.geoms, n) }
+    }
+}

@@ -1,0 +1,155 @@
+//! `splatloop record`: drives the robot open-loop through a world and writes the dataset.
+
+use crate::camera::SensorConfig;
+use crate::controls::ControlSchedule;
+use crate::dataset::DatasetWriter;
+use crate::egl::EglContext;
+use crate::error::{Result, SimError};
+use crate::robot::Pose2;
+use crate::world::World;
+use serde::Serialize;
+use std::path::PathBuf;
+
+/// Everything that defines a recording; written into episode.json.
+#[derive(Debug, Clone, Serialize)]
+pub struct RecordConfig {
+    /// The MJCF world.
+    pub world: PathBuf,
+    /// Control file or pattern name.
+    pub controls: String,
+    /// Simulated seconds to drive.
+    pub duration: f64,
+    /// Camera frames per simulated second.
+    pub frame_rate: f64,
+    /// Seed of every random choice (depth noise).
+    pub seed: u64,
+    /// The sensor.
+    pub sensor: SensorConfig,
+    /// Start pose override (else the world's `spawn` site).
+    pub start: Option<Pose2>,
+    /// Output folder.
+    pub out: PathBuf,
+}
+
+impl RecordConfig {
+    /// Refuses durations and rates that make no sense.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.duration.is_finite() && self.duration > 0.0) {
+            return Err(SimError::InvalidArgument {
+                what: "duration",
+                detail: format!(
+                    "{} s; give a positive number of simulated seconds",
+                    self.duration
+                ),
+            });
+        }
+        if !(self.frame_rate.is_finite() && self.frame_rate > 0.0) {
+            return Err(SimError::InvalidArgument {
+                what: "frame rate",
+                detail: format!("{} Hz; give a positive rate", self.frame_rate),
+            });
+        }
+        self.sensor.validate()
+    }
+}
+
+/// What episode.json records besides the config.
+#[derive(Debug, Serialize)]
+struct EpisodeFile<'a> {
+    command: &'static str,
+    config: &'a RecordConfig,
+    versions: Versions,
+    timestep: f64,
+    frames: usize,
+    collision_steps: usize,
+    final_pose: Pose2,
+}
+
+/// Versions of everything that shapes the output.
+#[derive(Debug, Serialize)]
+pub struct Versions {
+    /// This crate.
+    pub splatloop: &'static str,
+    /// libmujoco.
+    pub mujoco: String,
+    /// The EGL device and GL renderer.
+    pub renderer: String,
+}
+
+impl Versions {
+    /// Collects the versions in use.
+    pub fn current(gl: &EglContext) -> Self {
+        Versions {
+            splatloop: env!("CARGO_PKG_VERSION"),
+            mujoco: crate::mujoco::version(),
+            renderer: gl.description().to_owned(),
+        }
+    }
+}
+
+/// What a recording produced.
+#[derive(Debug, Clone)]
+pub struct RecordSummary {
+    /// The dataset folder.
+    pub out: PathBuf,
+    /// Frames written.
+    pub frames: usize,
+    /// Physics steps in which the robot touched something other than the floor.
+    pub collision_steps: usize,
+    /// Where the robot ended.
+    pub final_pose: Pose2,
+}
+
+/// Runs the recording; `on_progress` receives simulated time after each frame.
+pub fn record(config: &RecordConfig, on_progress: &mut dyn FnMut(f64)) -> Result<RecordSummary> {
+    config.validate()?;
+    let mut world = World::load(&config.world, &config.sensor)?;
+    let schedule = ControlSchedule::from_arg(&config.controls, &world.robot().limits)?;
+    if let Some(start) = config.start {
+        world.set_start(start);
+    }
+    let gl = EglContext::new()?;
+    let mut camera = world.make_camera(&config.sensor, config.seed, &gl)?;
+    let mut writer = DatasetWriter::create(&config.out, config.sensor.max_range)?;
+
+    let timestep = world.model().timestep();
+    let steps = (config.duration / timestep).round() as u64;
+    let frame_period = 1.0 / config.frame_rate;
+    let mut next_frame = 0.0;
+    let mut collision_steps = 0;
+    let mut frame = camera.capture(world.data())?;
+    for step in 0..=steps {
+        // Capture at the frame times, then act on the schedule for the next step.
+        let time = world.data().time();
+        if time + 0.5 * timestep >= next_frame {
+            camera.capture_into(world.data(), &mut frame)?;
+            writer.write_frame(&frame)?;
+            next_frame += frame_period;
+            on_progress(time);
+        }
+        if step == steps {
+            break;
+        }
+        world.step(schedule.at(time))?;
+        if world.robot_collisions().next().is_some() {
+            collision_steps += 1;
+        }
+    }
+    let final_pose = world.pose();
+    let frames = writer.frame_count();
+    let out = writer.finish(&EpisodeFile {
+        command: "record",
+        config,
+        versions: Versions::current(&gl),
+        timestep,
+        frames,
+        collision_steps,
+        final_pose,
+    })?;
+    Ok(RecordSummary {
+        out,
+        frames,
+        collision_steps,
+        final_pose,
+    })
+}

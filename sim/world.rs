@@ -1,0 +1,126 @@
+//! A loaded world: the compiled MJCF with the robot inside it, its state, and the robot's
+//! start pose.
+
+use crate::camera::{RgbdCamera, SensorConfig};
+use crate::egl::EglContext;
+use crate::error::Result;
+use crate::mujoco::{Contact, Data, GeomType, Model, ObjKind};
+use crate::robot::{names, Pose2, Robot, UnicycleCommand};
+use std::path::Path;
+use std::sync::Arc;
+
+/// Sensor near clipping plane, metres: closer surfaces are not measured.
+pub const SENSOR_NEAR_CLIP: f64 = 0.05;
+
+/// A world with the robot in it.
+pub struct World {
+    model: Arc<Model>,
+    data: Data,
+    robot: Robot,
+    start: Pose2,
+}
+
+impl World {
+    /// Loads an MJCF world, prepares its offscreen buffer for `sensor`, finds the robot and
+    /// puts it at the world's `spawn` site (or the origin).
+    pub fn load(path: &Path, sensor: &SensorConfig) -> Result<Self> {
+        sensor.validate()?;
+        let mut model = Model::from_xml(path)?;
+        model.configure_offscreen(sensor.width, sensor.height);
+        model.set_near_clip(SENSOR_NEAR_CLIP);
+        let robot = Robot::find(&model)?;
+        let model = Arc::new(model);
+        let data = Data::new(Arc::clone(&model))?;
+        let start = match model.id(ObjKind::Site, names::SPAWN_SITE, "") {
+            Ok(site) => {
+                let p = data.site_position(site);
+                let r = data.site_rotation(site);
+                Pose2 {
+                    x: p.x,
+                    y: p.y,
+                    theta: r[(1, 0)].atan2(r[(0, 0)]),
+                }
+            }
+            Err(_) => Pose2::default(),
+        };
+        let mut world = World {
+            model,
+            data,
+            robot,
+            start,
+        };
+        world.reset();
+        Ok(world)
+    }
+
+    /// Overrides the start pose and resets to it.
+    pub fn set_start(&mut self, start: Pose2) {
+        self.start = start;
+        self.reset();
+    }
+
+    /// Back to time 0 with the robot at rest at its start pose.
+    pub fn reset(&mut self) {
+        self.data.reset();
+        self.robot.place(&mut self.data, self.start);
+    }
+
+    /// Applies `command` through the drive controller and advances one physics step.
+    pub fn step(&mut self, command: UnicycleCommand) -> Result<()> {
+        self.robot.drive(&mut self.data, command);
+        self.data.step()
+    }
+
+    /// The robot's planar pose.
+    pub fn pose(&self) -> Pose2 {
+        self.robot.pose(&self.data)
+    }
+
+    /// Contacts between the robot and anything but the ground: collisions.
+    pub fn robot_collisions(&self) -> impl Iterator<Item = Contact> + '_ {
+        self.data.contacts().filter(|c| {
+            let (a, b) = (self.robot.owns_geom(c.geom1), self.robot.owns_geom(c.geom2));
+            let other = match (a, b) {
+                (true, false) => c.geom2,
+                (false, true) => c.geom1,
+                _ => return false,
+            };
+            self.model.geom_type(other) == GeomType::Solid
+        })
+    }
+
+    /// Makes the robot's RGB-D camera; needs a current EGL context.
+    pub fn make_camera(
+        &self,
+        config: &SensorConfig,
+        seed: u64,
+        gl: &EglContext,
+    ) -> Result<RgbdCamera> {
+        RgbdCamera::new(Arc::clone(&self.model), self.robot.camera, config, seed, gl)
+    }
+
+    /// The compiled model.
+    pub fn model(&self) -> &Arc<Model> {
+        &self.model
+    }
+
+    /// The simulation state.
+    pub fn data(&self) -> &Data {
+        &self.data
+    }
+
+    /// The simulation state, writable (tests move the robot directly).
+    pub fn data_mut(&mut self) -> &mut Data {
+        &mut self.data
+    }
+
+    /// Where the robot is in the model.
+    pub fn robot(&self) -> &Robot {
+        &self.robot
+    }
+
+    /// The start pose.
+    pub fn start(&self) -> Pose2 {
+        self.start
+    }
+}

@@ -1,0 +1,8 @@
+//! Integration tests of the host, compiled into one binary (one link, shared helpers).
+
+mod bad_input;
+mod dataset;
+mod drive;
+mod egl;
+mod sensor;
+mod support;
