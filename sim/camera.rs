@@ -92,7 +92,9 @@ pub struct RgbdFrame {
 /// Converts MuJoCo's camera orientation (looking along -z, y up) to the optical frame.
 pub fn optical_from_mujoco_camera(world_from_mujoco_camera: &Matrix3) -> Rotation3 {
     let flip = Matrix3::from_diagonal(&Vector3::new(1.0, -1.0, -1.0));
-    Rotation3::from_matrix(&(world_from_mujoco_camera * flip))
+    // MuJoCo's matrix is orthonormal already; `from_matrix` would re-orthogonalise iteratively
+    // from the identity and stalls on exact half turns (a camera facing -y).
+    Rotation3::from_matrix_unchecked(world_from_mujoco_camera * flip)
 }
 
 /// The RGB-D camera: a renderer bound to one model camera.

@@ -3,7 +3,7 @@
 //! Order of preference: EGL devices (real GPUs first, Mesa's software device last), then
 //! Mesa's surfaceless platform (llvmpipe). `SPLATLOOP_EGL_DEVICE=N` (or MuJoCo's
 //! `MUJOCO_EGL_DEVICE_ID`) picks one device; `SPLATLOOP_EGL_PLATFORM=device|surfaceless`
-//! forces a platform.
+//! forces a platform. The chosen one is logged at info level.
 
 #[allow(
     non_upper_case_globals,
@@ -49,6 +49,36 @@ impl EglPlatform {
     }
 }
 
+/// Which platform and device to try; [`EglOptions::from_env`] reads the environment.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct EglOptions {
+    /// Platform order.
+    pub platform: EglPlatform,
+    /// Only this EGL device index (device platform).
+    pub device: Option<usize>,
+}
+
+impl EglOptions {
+    /// `SPLATLOOP_EGL_PLATFORM` and `SPLATLOOP_EGL_DEVICE` (or `MUJOCO_EGL_DEVICE_ID`).
+    pub fn from_env() -> Result<Self> {
+        let device = match std::env::var("SPLATLOOP_EGL_DEVICE")
+            .or_else(|_| std::env::var("MUJOCO_EGL_DEVICE_ID"))
+        {
+            Ok(text) if !text.trim().is_empty() => {
+                Some(text.trim().parse().map_err(|_| SimError::InvalidArgument {
+                    what: "SPLATLOOP_EGL_DEVICE",
+                    detail: format!("'{text}' is not a device index"),
+                })?)
+            }
+            _ => None,
+        };
+        Ok(EglOptions {
+            platform: EglPlatform::from_env()?,
+            device,
+        })
+    }
+}
+
 /// An OpenGL (compatibility profile) context, current on the thread that made it.
 ///
 /// Not `Send`: a GL context belongs to one thread.
@@ -86,12 +116,13 @@ const GL_RENDERER: u32 = 0x1F01;
 impl EglContext {
     /// Makes a context with the platform order of [`EglPlatform::from_env`].
     pub fn new() -> Result<Self> {
-        Self::with_platform(EglPlatform::from_env()?)
+        Self::with_options(EglOptions::from_env()?)
     }
 
-    /// Makes a context on `platform`, trying candidates in order; the error lists why each
+    /// Makes a context with `options`, trying candidates in order; the error lists why each
     /// one failed.
-    pub fn with_platform(platform: EglPlatform) -> Result<Self> {
+    pub fn with_options(options: EglOptions) -> Result<Self> {
+        let platform = options.platform;
         let mut failures = Vec::new();
         let get_platform_display: Option<GetPlatformDisplay> = load("eglGetPlatformDisplayEXT");
         let Some(get_platform_display) = get_platform_display else {
@@ -100,7 +131,7 @@ impl EglContext {
             ));
         };
         if platform != EglPlatform::Surfaceless {
-            match devices() {
+            match devices(options.device) {
                 Ok(devices) => {
                     for (index, device, name) in devices {
                         // SAFETY: the device handle came from eglQueryDevicesEXT.
@@ -184,9 +215,8 @@ impl EglContext {
     }
 }
 
-/// EGL devices, hardware first, Mesa's software device last; `SPLATLOOP_EGL_DEVICE` (or
-/// `MUJOCO_EGL_DEVICE_ID`) keeps only one.
-fn devices() -> Result<Vec<(usize, sys::EGLDeviceEXT, String)>, String> {
+/// EGL devices, hardware first, Mesa's software device last; `only` keeps one index.
+fn devices(only: Option<usize>) -> Result<Vec<(usize, sys::EGLDeviceEXT, String)>, String> {
     let query_devices: QueryDevices =
         load("eglQueryDevicesEXT").ok_or("libEGL lacks eglQueryDevicesEXT")?;
     let query_string: Option<QueryDeviceString> = load("eglQueryDeviceStringEXT");
@@ -213,18 +243,11 @@ fn devices() -> Result<Vec<(usize, sys::EGLDeviceEXT, String)>, String> {
             (index, device, name.to_owned())
         })
         .collect();
-    let requested = std::env::var("SPLATLOOP_EGL_DEVICE")
-        .or_else(|_| std::env::var("MUJOCO_EGL_DEVICE_ID"))
-        .ok();
-    if let Some(requested) = requested {
-        let index: usize = requested
-            .trim()
-            .parse()
-            .map_err(|_| format!("SPLATLOOP_EGL_DEVICE='{requested}' is not a device index"))?;
+    if let Some(index) = only {
         devices.retain(|(i, _, _)| *i == index);
         if devices.is_empty() {
             return Err(format!(
-                "SPLATLOOP_EGL_DEVICE={index} but only {count} EGL devices exist"
+                "EGL device {index} was requested but only {count} EGL devices exist"
             ));
         }
     }

@@ -27,7 +27,8 @@ pub struct RecordConfig {
     pub sensor: SensorConfig,
     /// Start pose override (else the world's `spawn` site).
     pub start: Option<Pose2>,
-    /// Output folder.
+    /// Output folder (not recorded: the same episode is the same bytes wherever it lands).
+    #[serde(skip)]
     pub out: PathBuf,
 }
 

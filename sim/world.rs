@@ -4,7 +4,7 @@
 use crate::camera::{RgbdCamera, SensorConfig};
 use crate::egl::EglContext;
 use crate::error::Result;
-use crate::mujoco::{Contact, Data, GeomType, Model, ObjKind};
+use crate::mujoco::{Contact, Data, Model, ObjKind};
 use crate::robot::{names, Pose2, Robot, UnicycleCommand};
 use std::path::Path;
 use std::sync::Arc;
@@ -85,7 +85,7 @@ impl World {
                 (false, true) => c.geom1,
                 _ => return false,
             };
-            self.model.geom_type(other) == GeomType::Solid
+            !self.model.geom_type(other).is_ground()
         })
     }
 

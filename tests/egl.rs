@@ -1,1 +1,54 @@
+//! Both headless EGL platforms render the same picture; a request nothing can meet fails
+//! with a message.
 
+use crate::support::room;
+use splatloop::camera::SensorConfig;
+use splatloop::egl::{EglContext, EglOptions, EglPlatform};
+
+fn depth_with(platform: EglPlatform) -> (String, Vec<f32>) {
+    let gl = EglContext::with_options(EglOptions {
+        platform,
+        device: None,
+    })
+    .expect("context");
+    let world = room();
+    let mut camera = world
+        .make_camera(&SensorConfig::default(), 0, &gl)
+        .expect("camera");
+    let frame = camera.capture(world.data()).expect("frame");
+    (gl.description().to_owned(), frame.depth)
+}
+
+#[test]
+fn device_and_surfaceless_platforms_render_the_same_depth() {
+    let (device_name, device_depth) = depth_with(EglPlatform::Device);
+    let (surfaceless_name, surfaceless_depth) = depth_with(EglPlatform::Surfaceless);
+    assert!(device_name.starts_with("EGL device"), "{device_name}");
+    assert!(
+        surfaceless_name.starts_with("Mesa surfaceless"),
+        "{surfaceless_name}"
+    );
+    let differing = device_depth
+        .iter()
+        .zip(&surfaceless_depth)
+        .filter(|(a, b)| (*a - *b).abs() > 1e-3)
+        .count();
+    assert!(device_depth.iter().filter(|d| **d > 0.0).count() > 1000);
+    assert!(
+        differing * 100 < device_depth.len(),
+        "{differing} pixels differ"
+    );
+}
+
+#[test]
+fn a_missing_device_is_a_clear_error() {
+    let error = EglContext::with_options(EglOptions {
+        platform: EglPlatform::Device,
+        device: Some(99),
+    })
+    .err()
+    .expect("there is no EGL device 99");
+    let text = error.to_string();
+    assert!(text.contains("EGL device 99 was requested"), "{text}");
+    assert!(text.contains("Install Mesa's EGL"), "{text}");
+}

@@ -60,15 +60,32 @@ impl ObjKind {
     }
 }
 
-/// Geom shapes the host distinguishes (ground vs. obstacles).
+/// Geom shapes the host distinguishes: ground vs. obstacles, and flat-faced vs. curved (the
+/// renderer draws curved primitives as polygons, mj_ray intersects them exactly).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum GeomType {
     /// An infinite plane (floors).
     Plane,
     /// A height field (terrain).
     HeightField,
-    /// Anything else: boxes, meshes, cylinders, ...
-    Solid,
+    /// A box.
+    Box,
+    /// A triangle mesh.
+    Mesh,
+    /// A sphere, capsule, ellipsoid or cylinder.
+    Curved,
+}
+
+impl GeomType {
+    /// Whether this is ground the robot drives on rather than an obstacle.
+    pub fn is_ground(self) -> bool {
+        matches!(self, GeomType::Plane | GeomType::HeightField)
+    }
+
+    /// Whether the renderer draws exactly the surface mj_ray intersects.
+    pub fn is_flat_faced(self) -> bool {
+        !matches!(self, GeomType::Curved)
+    }
 }
 
 /// A compiled MuJoCo model, owned; freed on drop.
@@ -238,7 +255,9 @@ impl Model {
         match array(m.geom_type, m.ngeom)[geom] {
             t if t == sys::mjtGeom::mjGEOM_PLANE as i32 => GeomType::Plane,
             t if t == sys::mjtGeom::mjGEOM_HFIELD as i32 => GeomType::HeightField,
-            _ => GeomType::Solid,
+            t if t == sys::mjtGeom::mjGEOM_BOX as i32 => GeomType::Box,
+            t if t == sys::mjtGeom::mjGEOM_MESH as i32 => GeomType::Mesh,
+            _ => GeomType::Curved,
         }
     }
 
