@@ -3,6 +3,7 @@
 use crate::camera::SensorConfig;
 use crate::egl::EglContext;
 use crate::error::Result;
+use crate::mujoco::RenderFlags;
 use crate::robot::UnicycleCommand;
 use crate::world::World;
 use std::path::Path;
@@ -31,10 +32,21 @@ pub fn bench_sensor(world_path: &Path, frames: usize) -> Result<(String, Vec<Sen
     let gl = EglContext::new()?;
     let mut rows = Vec::new();
     let command = UnicycleCommand { v: 0.3, w: 0.25 };
-    for (width, height) in [(320, 240), (640, 480)] {
+    let cases = [
+        ("sensor defaults", 320, 240, RenderFlags::default()),
+        ("sensor defaults", 640, 480, RenderFlags::default()),
+        (
+            "MuJoCo defaults (baseline)",
+            320,
+            240,
+            RenderFlags::mujoco_defaults(),
+        ),
+    ];
+    for (label, width, height, flags) in cases {
         let sensor = SensorConfig {
             width,
             height,
+            flags,
             ..SensorConfig::default()
         };
         let mut world = World::load(world_path, &sensor)?;
@@ -54,7 +66,7 @@ pub fn bench_sensor(world_path: &Path, frames: usize) -> Result<(String, Vec<Sen
             render_seconds += start.elapsed().as_secs_f64();
         }
         rows.push(SensorBenchRow {
-            what: format!("RGB-D frame {width}x{height}"),
+            what: format!("RGB-D frame {width}x{height}, {label}"),
             count: frames,
             seconds: render_seconds,
         });

@@ -60,7 +60,7 @@ impl ControlSchedule {
             "circle" => vec![(0.0, command(0.3, 0.25))],
             "spin" => vec![(0.0, command(0.0, 0.5))],
             "straight" => vec![(0.0, command(0.4, 0.0))],
-            "survey" => (0..200)
+            "arcs" => (0..200)
                 .flat_map(|i| {
                     let t = 6.0 * f64::from(i);
                     [(t, command(0.35, 0.1)), (t + 4.0, command(0.0, 0.6))]

@@ -4,7 +4,6 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use splatloop::camera::SensorConfig;
-use splatloop::controls::PATTERNS;
 use splatloop::record::{record, RecordConfig};
 use splatloop::robot::Pose2;
 use std::path::PathBuf;
@@ -51,15 +50,18 @@ struct RecordArgs {
     #[arg(long, default_value = "worlds/room.xml")]
     world: PathBuf,
     /// CSV of `t,v,w` rows (commands hold until the next row), or a built-in pattern:
-    /// circle, spin, straight, survey.
+    /// circle, spin, straight, arcs.
     #[arg(long, default_value = "circle")]
     controls: String,
     /// Simulated seconds to drive.
     #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
     duration: f64,
     /// Output folder (must be new or empty).
-    #[arg(long)]
+    #[arg(long, default_value = "runs/record")]
     out: PathBuf,
+    /// Replace the output folder if it holds an earlier dataset.
+    #[arg(long)]
+    overwrite: bool,
     /// Camera frames per simulated second.
     #[arg(long, default_value_t = 5.0)]
     fps: f64,
@@ -123,11 +125,21 @@ fn run(command: Command) -> Result<()> {
             BenchTarget::Sensor => {
                 let (device, rows) = splatloop::bench::bench_sensor(&world, frames.max(1))?;
                 println!("device: {device}");
-                println!("| what | count | seconds | per second |");
-                println!("|---|---:|---:|---:|");
-                for row in rows {
+                println!("| what | count | seconds | per second | x baseline |");
+                println!("|---|---:|---:|---:|---:|");
+                let baseline = rows
+                    .iter()
+                    .find(|r| r.what.contains("baseline"))
+                    .map(|r| r.rate());
+                for row in &rows {
+                    let ratio = match baseline {
+                        Some(b) if row.what.starts_with("RGB-D") => {
+                            format!("{:.1}", row.rate() / b)
+                        }
+                        _ => String::from("-"),
+                    };
                     println!(
-                        "| {} | {} | {:.3} | {:.1} |",
+                        "| {} | {} | {:.3} | {:.1} | {ratio} |",
                         row.what,
                         row.count,
                         row.seconds,
@@ -155,6 +167,7 @@ fn run_record(args: RecordArgs) -> Result<()> {
             ..SensorConfig::default()
         },
         start: args.start,
+        overwrite: args.overwrite,
         out: args.out,
     };
     config.validate()?;
@@ -181,6 +194,5 @@ fn run_record(args: RecordArgs) -> Result<()> {
         summary.final_pose.theta,
         summary.collision_steps
     );
-    let _ = PATTERNS;
     Ok(())
 }

@@ -27,6 +27,9 @@ pub struct RecordConfig {
     pub sensor: SensorConfig,
     /// Start pose override (else the world's `spawn` site).
     pub start: Option<Pose2>,
+    /// Replace an existing dataset in `out`.
+    #[serde(skip)]
+    pub overwrite: bool,
     /// Output folder (not recorded: the same episode is the same bytes wherever it lands).
     #[serde(skip)]
     pub out: PathBuf,
@@ -111,7 +114,7 @@ pub fn record(config: &RecordConfig, on_progress: &mut dyn FnMut(f64)) -> Result
     }
     let gl = EglContext::new()?;
     let mut camera = world.make_camera(&config.sensor, config.seed, &gl)?;
-    let mut writer = DatasetWriter::create(&config.out, config.sensor.max_range)?;
+    let mut writer = DatasetWriter::create(&config.out, config.sensor.max_range, config.overwrite)?;
 
     let timestep = world.model().timestep();
     let steps = (config.duration / timestep).round() as u64;

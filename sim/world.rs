@@ -20,13 +20,23 @@ pub struct World {
     start: Pose2,
 }
 
+impl std::fmt::Debug for World {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("World")
+            .field("path", &self.model.path())
+            .field("time", &self.data.time())
+            .field("pose", &self.pose())
+            .finish()
+    }
+}
+
 impl World {
     /// Loads an MJCF world, prepares its offscreen buffer for `sensor`, finds the robot and
     /// puts it at the world's `spawn` site (or the origin).
     pub fn load(path: &Path, sensor: &SensorConfig) -> Result<Self> {
         sensor.validate()?;
         let mut model = Model::from_xml(path)?;
-        model.configure_offscreen(sensor.width, sensor.height);
+        model.configure_offscreen(sensor.width, sensor.height, sensor.flags.multisample);
         model.set_near_clip(SENSOR_NEAR_CLIP);
         let robot = Robot::find(&model)?;
         let model = Arc::new(model);

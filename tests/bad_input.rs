@@ -10,9 +10,7 @@ use splatloop::SimError;
 use std::path::Path;
 
 fn load(path: &Path) -> SimError {
-    World::load(path, &SensorConfig::default())
-        .err()
-        .expect("must be refused")
+    World::load(path, &SensorConfig::default()).expect_err("must be refused")
 }
 
 #[test]
@@ -60,9 +58,7 @@ fn resolutions_outside_the_supported_range_are_refused() {
             height,
             ..SensorConfig::default()
         };
-        let error = World::load(&repo_path("worlds/room.xml"), &sensor)
-            .err()
-            .expect("refused");
+        let error = World::load(&repo_path("worlds/room.xml"), &sensor).expect_err("refused");
         assert!(
             error.to_string().contains("invalid resolution"),
             "{width}x{height}: {error}"
@@ -79,6 +75,7 @@ fn record_config(duration: f64, out: &Path) -> RecordConfig {
         seed: 0,
         sensor: SensorConfig::default(),
         start: None,
+        overwrite: false,
         out: out.to_owned(),
     }
 }
@@ -88,9 +85,7 @@ fn a_negative_duration_is_refused_before_anything_is_written() {
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().join("episode");
     for duration in [-1.0, 0.0, f64::NAN] {
-        let error = record(&record_config(duration, &out), &mut |_| {})
-            .err()
-            .expect("refused");
+        let error = record(&record_config(duration, &out), &mut |_| {}).expect_err("refused");
         assert!(error.to_string().contains("invalid duration"), "{error}");
     }
     assert!(
@@ -103,9 +98,7 @@ fn a_negative_duration_is_refused_before_anything_is_written() {
 fn an_occupied_output_folder_is_not_overwritten() {
     let dir = tempfile::tempdir().expect("tempdir");
     std::fs::write(dir.path().join("precious.txt"), "keep me").expect("write");
-    let error = record(&record_config(1.0, dir.path()), &mut |_| {})
-        .err()
-        .expect("refused");
+    let error = record(&record_config(1.0, dir.path()), &mut |_| {}).expect_err("refused");
     assert!(error.to_string().contains("is not empty"), "{error}");
     assert_eq!(
         std::fs::read_to_string(dir.path().join("precious.txt")).expect("kept"),
@@ -127,14 +120,10 @@ fn malformed_control_files_name_the_line() {
     for (i, (text, expected)) in cases.iter().enumerate() {
         let path = dir.path().join(format!("case{i}.csv"));
         std::fs::write(&path, text).expect("write");
-        let error = ControlSchedule::from_csv(&path, &limits)
-            .err()
-            .expect("refused");
+        let error = ControlSchedule::from_csv(&path, &limits).expect_err("refused");
         assert!(error.to_string().contains(expected), "case {i}: {error}");
     }
-    let error = ControlSchedule::from_arg("no_such_pattern", &limits)
-        .err()
-        .expect("refused");
+    let error = ControlSchedule::from_arg("no_such_pattern", &limits).expect_err("refused");
     assert!(
         error.to_string().contains("not a built-in pattern"),
         "{error}"

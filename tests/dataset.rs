@@ -19,6 +19,7 @@ fn record_spin(out: &Path, seed: u64, noise: Option<f64>) {
             ..SensorConfig::default()
         },
         start: None,
+        overwrite: false,
         out: out.to_owned(),
     };
     let summary = record(&config, &mut |_| {}).expect("recording");

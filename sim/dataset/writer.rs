@@ -50,22 +50,28 @@ struct TransformsFile<'a> {
 }
 
 impl DatasetWriter {
-    /// Creates the folder layout; refuses a folder that already holds files so nothing is
-    /// overwritten by accident.
-    pub fn create(dir: &Path, max_range: f64) -> Result<Self> {
+    /// Creates the folder layout. A folder that already holds files is refused so nothing is
+    /// lost, unless `overwrite` is set and it is a splatloop dataset (it has episode.json).
+    pub fn create(dir: &Path, max_range: f64, overwrite: bool) -> Result<Self> {
         if dir.exists() {
             let occupied = fs::read_dir(dir)
                 .map_err(|e| SimError::io("cannot read", dir, e))?
                 .next()
                 .is_some();
-            if occupied {
+            let is_dataset = dir.join("episode.json").is_file();
+            if occupied && !(overwrite && is_dataset) {
+                let hint = if overwrite {
+                    "it is not a splatloop dataset (no episode.json), so --overwrite leaves it alone"
+                } else {
+                    "choose a new --out, or pass --overwrite to replace a dataset"
+                };
                 return Err(SimError::InvalidArgument {
                     what: "output folder",
-                    detail: format!(
-                        "{} is not empty; choose a new --out or delete it first",
-                        dir.display()
-                    ),
+                    detail: format!("{} is not empty; {hint}", dir.display()),
                 });
+            }
+            if occupied {
+                fs::remove_dir_all(dir).map_err(|e| SimError::io("cannot remove", dir, e))?;
             }
         }
         for sub in ["rgb", "depth"] {

@@ -227,7 +227,7 @@ impl Data {
                 &mut geom,
             )
         };
-        (geom >= 0 && distance >= 0.0).then(|| RayHit {
+        (geom >= 0 && distance >= 0.0).then_some(RayHit {
             distance,
             geom: geom as usize,
         })

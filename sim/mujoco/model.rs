@@ -348,13 +348,14 @@ impl Model {
     }
 
     /// Prepares the model for an offscreen sensor of `width` x `height`: the offscreen buffer
-    /// must be at least that large, and multisampling is turned off (llvmpipe is 10x faster).
-    pub fn configure_offscreen(&mut self, width: u32, height: u32) {
+    /// must be at least that large; multisampling is off unless asked for (it blends depths
+    /// across silhouettes and costs several times the frame time on llvmpipe).
+    pub fn configure_offscreen(&mut self, width: u32, height: u32, multisample: bool) {
         // SAFETY: &mut self gives exclusive access to the model block.
         let m = unsafe { self.raw.as_mut() };
         m.vis.global.offwidth = m.vis.global.offwidth.max(width as i32);
         m.vis.global.offheight = m.vis.global.offheight.max(height as i32);
-        m.vis.quality.offsamples = 0;
+        m.vis.quality.offsamples = if multisample { 4 } else { 0 };
     }
 
     /// Sets the near clipping plane as a distance in metres, so depth starts close to the lens.

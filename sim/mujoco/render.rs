@@ -18,6 +18,21 @@ pub struct RenderFlags {
     pub reflections: bool,
     /// The skybox behind everything.
     pub skybox: bool,
+    /// 4x multisampled offscreen buffer (smooth edges, mixed depths at silhouettes).
+    pub multisample: bool,
+}
+
+impl RenderFlags {
+    /// MuJoCo's own defaults: every effect on; the baseline the sensor defaults are measured
+    /// against.
+    pub fn mujoco_defaults() -> Self {
+        RenderFlags {
+            shadows: true,
+            reflections: true,
+            skybox: true,
+            multisample: true,
+        }
+    }
 }
 
 /// A scene and an OpenGL context for one model at one resolution.

@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# Takes a fresh Debian 12 machine (root, package registries only) to a working release build of
+# splatloop. Idempotent: packages already present are skipped, cargo rebuilds only what changed.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+say() { printf '\n==> %s\n' "$*"; }
+
+# System packages:
+#   libmujoco-dev           MuJoCo 2.2.2 headers + library (no pkg-config file; build.rs knows)
+#   libclang-dev            bindgen parses the MuJoCo and EGL headers with libclang
+#   libegl-dev libegl1 libegl-mesa0 libgl1-mesa-dri libgl-dev
+#                           headless OpenGL through EGL (device + surfaceless platforms, llvmpipe)
+#   mesa-vulkan-drivers libvulkan1
+#                           lavapipe, the software Vulkan adapter the wgpu parity tests run on
+#   pkg-config python3      build helpers
+packages=(
+  libmujoco-dev libclang-dev
+  libegl-dev libegl1 libegl-mesa0 libgl1-mesa-dri libgl-dev
+  mesa-vulkan-drivers libvulkan1
+  pkg-config python3 ca-certificates
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  say "installing system packages: ${missing[*]}"
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+else
+  say "system packages already installed"
+fi
+
+if ! command -v cargo >/dev/null 2>&1; then
+  echo "error: cargo not found. Install Rust (rustup, or Debian's cargo) and run this script again." >&2
+  exit 1
+fi
+
+say "fetching Rust dependencies"
+cargo fetch --locked 2>/dev/null || cargo fetch
+
+say "building splatloop (release)"
+cargo build --release --locked 2>/dev/null || cargo build --release
+
+say "done: target/release/splatloop is ready"
