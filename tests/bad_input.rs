@@ -143,3 +143,18 @@ fn the_command_line_reports_errors_and_exits_non_zero() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("invalid duration"), "{stderr}");
 }
+
+#[test]
+fn a_nan_state_is_reported_as_an_unstable_simulation() {
+    let mut world = crate::support::room();
+    world.data_mut().qvel_mut()[0] = f64::NAN;
+    let error = world
+        .step(splatloop::robot::UnicycleCommand::default())
+        .expect_err("MuJoCo's bad-velocity warning must surface");
+    assert!(matches!(error, SimError::Unstable { .. }), "{error}");
+    assert!(error.to_string().contains("NaN"), "{error}");
+    // MuJoCo reset the state; stepping on works and counts from a clean warning slate.
+    world
+        .step(splatloop::robot::UnicycleCommand::default())
+        .expect("recovered");
+}
