@@ -4,4 +4,6 @@
 //! feeds it frames and applies what it decides. It never depends on MuJoCo.
 
 pub mod camera;
+pub mod gaussians;
 pub mod math;
+pub mod splat;

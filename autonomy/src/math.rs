@@ -14,3 +14,5 @@ pub type Rotation3 = nalgebra::Rotation3<Real>;
 pub type UnitQuaternion = nalgebra::UnitQuaternion<Real>;
 /// A 3x3 matrix.
 pub type Matrix3 = nalgebra::Matrix3<Real>;
+/// A translation in 3D.
+pub type Translation3 = nalgebra::Translation3<Real>;
