@@ -134,6 +134,24 @@ impl Gradients {
     }
 }
 
+impl Gradients {
+    /// Adds `other` (gradients of another view of the same Gaussians) into `self`.
+    pub fn accumulate(&mut self, other: &Gradients) {
+        for &i in &other.touched {
+            let i = i as usize;
+            for a in 0..3 {
+                self.means[i][a] += other.means[i][a];
+                self.colours[i][a] += other.colours[i][a];
+            }
+            self.log_radii[i] += other.log_radii[i];
+            self.logit_opacities[i] += other.logit_opacities[i];
+        }
+        self.touched.extend_from_slice(&other.touched);
+        self.touched.sort_unstable();
+        self.touched.dedup();
+    }
+}
+
 /// The logistic function.
 pub fn sigmoid(x: f32) -> f32 {
     1.0 / (1.0 + (-x).exp())

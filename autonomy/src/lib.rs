@@ -3,7 +3,11 @@
 //! It knows cameras, images and poses in the conventions of DESIGN.md; the host (`sim/`)
 //! feeds it frames and applies what it decides. It never depends on MuJoCo.
 
+pub mod adam;
 pub mod camera;
 pub mod gaussians;
+pub mod loss;
 pub mod math;
+pub mod metrics;
 pub mod splat;
+pub mod ssim;

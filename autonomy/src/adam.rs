@@ -1,0 +1,142 @@
+//! Adam with per-parameter learning rates (SplaTAM's TUM rates) that updates only the
+//! Gaussians an iteration touched; each Gaussian keeps its own step count, so Gaussians added
+//! later get Adam's bias correction from their own first step.
+
+use crate::gaussians::{Gaussians, Gradients};
+
+/// Learning rate of each parameter kind.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LearningRates {
+    /// Means, metres per step.
+    pub means: f32,
+    /// Colours.
+    pub colours: f32,
+    /// Logit-opacities.
+    pub logit_opacities: f32,
+    /// Log-radii.
+    pub log_radii: f32,
+}
+
+impl Default for LearningRates {
+    /// SplaTAM's TUM rates (DESIGN.md).
+    fn default() -> Self {
+        LearningRates {
+            means: 1e-4,
+            colours: 2.5e-3,
+            logit_opacities: 0.05,
+            log_radii: 1e-3,
+        }
+    }
+}
+
+const BETA1: f32 = 0.9;
+const BETA2: f32 = 0.999;
+const EPSILON: f32 = 1e-15;
+
+/// Optimiser state for a growing and shrinking set of Gaussians.
+#[derive(Debug, Clone, Default)]
+pub struct Adam {
+    /// Learning rates.
+    pub rates: LearningRates,
+    first: Gaussians,
+    second: Gaussians,
+    steps: Vec<u32>,
+}
+
+fn update(param: &mut f32, grad: f32, m: &mut f32, v: &mut f32, lr: f32, c1: f32, c2: f32) {
+    *m = BETA1 * *m + (1.0 - BETA1) * grad;
+    *v = BETA2 * *v + (1.0 - BETA2) * grad * grad;
+    *param -= lr * (*m / c1) / ((*v / c2).sqrt() + EPSILON);
+}
+
+impl Adam {
+    /// An optimiser with `rates` and no state yet.
+    pub fn new(rates: LearningRates) -> Self {
+        Adam {
+            rates,
+            ..Adam::default()
+        }
+    }
+
+    /// Grows the state to `n` Gaussians (new ones start with zero moments).
+    pub fn resize(&mut self, n: usize) {
+        for state in [&mut self.first, &mut self.second] {
+            state.means.resize(n, [0.0; 3]);
+            state.log_radii.resize(n, 0.0);
+            state.logit_opacities.resize(n, 0.0);
+            state.colours.resize(n, [0.0; 3]);
+        }
+        self.steps.resize(n, 0);
+    }
+
+    /// Keeps the state of the Gaussians whose `keep` flag is set (after pruning).
+    pub fn retain(&mut self, keep: &[bool]) {
+        fn filter<T: Copy>(v: &mut Vec<T>, keep: &[bool]) {
+            let mut i = 0;
+            v.retain(|_| {
+                i += 1;
+                keep[i - 1]
+            });
+        }
+        for state in [&mut self.first, &mut self.second] {
+            filter(&mut state.means, keep);
+            filter(&mut state.log_radii, keep);
+            filter(&mut state.logit_opacities, keep);
+            filter(&mut state.colours, keep);
+        }
+        filter(&mut self.steps, keep);
+    }
+
+    /// One step on the touched Gaussians.
+    pub fn step(&mut self, gaussians: &mut Gaussians, grads: &Gradients) {
+        if self.steps.len() < gaussians.len() {
+            self.resize(gaussians.len());
+        }
+        let r = self.rates;
+        for &i in &grads.touched {
+            let i = i as usize;
+            self.steps[i] += 1;
+            let t = self.steps[i] as i32;
+            let (c1, c2) = (1.0 - BETA1.powi(t), 1.0 - BETA2.powi(t));
+            let (m, v) = (&mut self.first, &mut self.second);
+            for a in 0..3 {
+                update(
+                    &mut gaussians.means[i][a],
+                    grads.means[i][a],
+                    &mut m.means[i][a],
+                    &mut v.means[i][a],
+                    r.means,
+                    c1,
+                    c2,
+                );
+                update(
+                    &mut gaussians.colours[i][a],
+                    grads.colours[i][a],
+                    &mut m.colours[i][a],
+                    &mut v.colours[i][a],
+                    r.colours,
+                    c1,
+                    c2,
+                );
+            }
+            update(
+                &mut gaussians.log_radii[i],
+                grads.log_radii[i],
+                &mut m.log_radii[i],
+                &mut v.log_radii[i],
+                r.log_radii,
+                c1,
+                c2,
+            );
+            update(
+                &mut gaussians.logit_opacities[i],
+                grads.logit_opacities[i],
+                &mut m.logit_opacities[i],
+                &mut v.logit_opacities[i],
+                r.logit_opacities,
+                c1,
+                c2,
+            );
+        }
+    }
+}

@@ -1,0 +1,128 @@
+//! The mapping loss of DESIGN.md: mean L1 depth error on measured pixels + 0.4 mean L1 colour
+//! error + 0.1 (1 - SSIM), and its gradient with respect to the rendered images.
+
+use crate::splat::{ImageGradients, Images};
+use crate::ssim::{ssim_channel, Real};
+
+/// Weight of the colour L1 term (lambda1).
+pub const COLOUR_WEIGHT: f32 = 0.4;
+/// Weight of the (1 - SSIM) term (lambda2).
+pub const SSIM_WEIGHT: f32 = 0.1;
+
+/// A measured RGB-D frame to fit, same layout as [`Images`]; depth 0 means no measurement.
+#[derive(Debug, Clone, Copy)]
+pub struct Target<'a> {
+    /// Interleaved RGB in [0, 1].
+    pub colour: &'a [f32],
+    /// Metres, 0 where nothing was measured.
+    pub depth: &'a [f32],
+}
+
+/// The value of each term, for logs.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct LossTerms {
+    /// Mean |D^ - D| over measured pixels.
+    pub depth_l1: f32,
+    /// Mean |C^ - C| over pixels and channels.
+    pub colour_l1: f32,
+    /// Mean SSIM over pixels and channels.
+    pub ssim: f32,
+}
+
+impl LossTerms {
+    /// The weighted total.
+    pub fn total(&self) -> f32 {
+        self.depth_l1 + COLOUR_WEIGHT * self.colour_l1 + SSIM_WEIGHT * (1.0 - self.ssim)
+    }
+}
+
+/// Loss of `rendered` (colour 3 x W x H interleaved, depth W x H) against `target`, with the
+/// gradient written into `colour_grad` and `depth_grad`. Generic for finite-difference tests.
+pub fn loss_generic<F: Real>(
+    rendered_colour: &[F],
+    rendered_depth: &[F],
+    target_colour: &[F],
+    target_depth: &[F],
+    width: usize,
+    height: usize,
+    colour_grad: &mut [F],
+    depth_grad: &mut [F],
+) -> [F; 3] {
+    let n = width * height;
+    let f = |v: f32| <F as From<f32>>::from(v);
+    let sign = |d: F| {
+        if d > F::zero() {
+            F::one()
+        } else if d < F::zero() {
+            -F::one()
+        } else {
+            F::zero()
+        }
+    };
+    // Depth: measured pixels only.
+    let measured = target_depth.iter().filter(|d| **d > F::zero()).count();
+    let mut depth_l1 = F::zero();
+    if measured > 0 {
+        let inv = F::one() / f(measured as f32);
+        for p in 0..n {
+            if target_depth[p] > F::zero() {
+                let d = rendered_depth[p] - target_depth[p];
+                depth_l1 = depth_l1 + d.abs() * inv;
+                depth_grad[p] = sign(d) * inv;
+            } else {
+                depth_grad[p] = F::zero();
+            }
+        }
+    } else {
+        depth_grad.iter_mut().for_each(|g| *g = F::zero());
+    }
+    // Colour L1.
+    let inv3 = F::one() / f((3 * n) as f32);
+    let mut colour_l1 = F::zero();
+    for i in 0..3 * n {
+        let d = rendered_colour[i] - target_colour[i];
+        colour_l1 = colour_l1 + d.abs() * inv3;
+        colour_grad[i] = f(COLOUR_WEIGHT) * sign(d) * inv3;
+    }
+    // SSIM per channel, averaged; the loss carries -lambda2 / 3 per channel mean.
+    let mut ssim = F::zero();
+    let (mut x, mut y, mut g) = (vec![F::zero(); n], vec![F::zero(); n], vec![F::zero(); n]);
+    for c in 0..3 {
+        for p in 0..n {
+            x[p] = rendered_colour[3 * p + c];
+            y[p] = target_colour[3 * p + c];
+            g[p] = F::zero();
+        }
+        let scale = -f(SSIM_WEIGHT) / f(3.0);
+        ssim = ssim + ssim_channel(&x, &y, width, height, scale, &mut g) / f(3.0);
+        for p in 0..n {
+            colour_grad[3 * p + c] = colour_grad[3 * p + c] + g[p];
+        }
+    }
+    [depth_l1, colour_l1, ssim]
+}
+
+/// Loss of rendered images against a measured frame, and the image gradients for
+/// backpropagation through the renderer (the silhouette does not enter this loss).
+pub fn mapping_loss(rendered: &Images, target: Target<'_>) -> (LossTerms, ImageGradients) {
+    let n = rendered.width * rendered.height;
+    let mut grads = ImageGradients::zeros(n);
+    let [depth_l1, colour_l1, ssim] = loss_generic(
+        &rendered.colour,
+        &rendered.depth,
+        target.colour,
+        target.depth,
+        rendered.width,
+        rendered.height,
+        &mut grads.colour,
+        &mut grads.depth,
+    );
+    (
+        LossTerms {
+            depth_l1,
+            colour_l1,
+            ssim,
+        },
+        grads,
+    )
+}
