@@ -9,14 +9,18 @@ pub const COLOUR_WEIGHT: f32 = 0.4;
 /// Weight of the (1 - SSIM) term (lambda2).
 pub const SSIM_WEIGHT: f32 = 0.1;
 
-/// A measured RGB-D frame to fit, same layout as [`Images`]; depth 0 means no measurement.
+/// An RGB-D image pair of slices, same layout as [`Images`]: interleaved RGB and depth in
+/// metres (0 = no measurement).
 #[derive(Debug, Clone, Copy)]
-pub struct Target<'a> {
+pub struct RgbdSlices<'a, F> {
     /// Interleaved RGB in [0, 1].
-    pub colour: &'a [f32],
+    pub colour: &'a [F],
     /// Metres, 0 where nothing was measured.
-    pub depth: &'a [f32],
+    pub depth: &'a [F],
 }
+
+/// A measured RGB-D frame to fit.
+pub type Target<'a> = RgbdSlices<'a, f32>;
 
 /// The value of each term, for logs.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -36,18 +40,18 @@ impl LossTerms {
     }
 }
 
-/// Loss of `rendered` (colour 3 x W x H interleaved, depth W x H) against `target`, with the
-/// gradient written into `colour_grad` and `depth_grad`. Generic for finite-difference tests.
+/// Loss terms (depth L1, colour L1, SSIM) of `rendered` against `target`, both W x H, with the
+/// gradient of the weighted total written into `colour_grad` and `depth_grad`. Generic so
+/// tests can take finite differences in f64.
 pub fn loss_generic<F: Real>(
-    rendered_colour: &[F],
-    rendered_depth: &[F],
-    target_colour: &[F],
-    target_depth: &[F],
-    width: usize,
-    height: usize,
+    rendered: RgbdSlices<'_, F>,
+    target: RgbdSlices<'_, F>,
+    (width, height): (usize, usize),
     colour_grad: &mut [F],
     depth_grad: &mut [F],
 ) -> [F; 3] {
+    let (rendered_colour, rendered_depth) = (rendered.colour, rendered.depth);
+    let (target_colour, target_depth) = (target.colour, target.depth);
     let n = width * height;
     let f = |v: f32| <F as From<f32>>::from(v);
     let sign = |d: F| {
@@ -108,12 +112,12 @@ pub fn mapping_loss(rendered: &Images, target: Target<'_>) -> (LossTerms, ImageG
     let n = rendered.width * rendered.height;
     let mut grads = ImageGradients::zeros(n);
     let [depth_l1, colour_l1, ssim] = loss_generic(
-        &rendered.colour,
-        &rendered.depth,
-        target.colour,
-        target.depth,
-        rendered.width,
-        rendered.height,
+        RgbdSlices {
+            colour: &rendered.colour,
+            depth: &rendered.depth,
+        },
+        target,
+        (rendered.width, rendered.height),
         &mut grads.colour,
         &mut grads.depth,
     );

@@ -1,11 +1,9 @@
 //! The loss and its gradient, and the whole loop: render, loss, backward, Adam.
 
-mod support;
-
 use autonomy::adam::{Adam, LearningRates};
 use autonomy::camera::{Intrinsics, PinholeCamera};
 use autonomy::gaussians::{Gaussians, Gradients};
-use autonomy::loss::{loss_generic, mapping_loss, Target};
+use autonomy::loss::{loss_generic, mapping_loss, RgbdSlices, Target};
 use autonomy::math::{Isometry3, Point3, Vector3};
 use autonomy::metrics::psnr;
 use autonomy::splat::cpu;
@@ -14,7 +12,12 @@ use rand_chacha::ChaCha8Rng;
 
 fn loss_f64(colour: &[f64], depth: &[f64], tc: &[f64], td: &[f64], w: usize, h: usize) -> f64 {
     let (mut gc, mut gd) = (vec![0.0; colour.len()], vec![0.0; depth.len()]);
-    let [d, c, s] = loss_generic(colour, depth, tc, td, w, h, &mut gc, &mut gd);
+    let rendered = RgbdSlices { colour, depth };
+    let target = RgbdSlices {
+        colour: tc,
+        depth: td,
+    };
+    let [d, c, s] = loss_generic(rendered, target, (w, h), &mut gc, &mut gd);
     d + 0.4 * c + 0.1 * (1.0 - s)
 }
 
@@ -40,12 +43,15 @@ fn loss_gradient_matches_central_finite_differences() {
         .collect();
     let (mut gc, mut gd) = (vec![0.0; 3 * w * h], vec![0.0; w * h]);
     loss_generic(
-        &colour,
-        &depth,
-        &target,
-        &target_depth,
-        w,
-        h,
+        RgbdSlices {
+            colour: &colour,
+            depth: &depth,
+        },
+        RgbdSlices {
+            colour: &target,
+            depth: &target_depth,
+        },
+        (w, h),
         &mut gc,
         &mut gd,
     );

@@ -2,7 +2,7 @@
 
 use autonomy::camera::{Intrinsics, PinholeCamera};
 use autonomy::gaussians::Gaussians;
-use autonomy::math::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use autonomy::math::{Isometry3, Translation3, UnitQuaternion};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -42,7 +42,3 @@ pub fn random_weights(seed: u64, n: usize) -> Vec<f32> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     (0..n).map(|_| rng.gen_range(-1.0..1.0)).collect()
 }
-
-#[allow(dead_code)]
-/// Silences unused-import warnings in test files that only need some helpers.
-pub fn unused(_: Vector3) {}
