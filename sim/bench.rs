@@ -84,3 +84,89 @@ pub fn bench_sensor(world_path: &Path, frames: usize) -> Result<(String, Vec<Sen
     });
     Ok((gl.description().to_owned(), rows))
 }
+
+/// One row of `bench render`.
+#[derive(Debug, Clone)]
+pub struct RenderBenchRow {
+    /// Image width and height.
+    pub resolution: (u32, u32),
+    /// Gaussians in the scene.
+    pub gaussians: usize,
+    /// Gaussians that survived culling.
+    pub visible: usize,
+    /// (pixel, Gaussian) pairs the tile lists hold: the work of one forward pass.
+    pub pairs: usize,
+    /// Median seconds of each stage: forward, loss, backward, Adam.
+    pub stages: [f64; 4],
+}
+
+impl RenderBenchRow {
+    /// Median seconds of a whole iteration.
+    pub fn iteration(&self) -> f64 {
+        self.stages.iter().sum()
+    }
+}
+
+/// Times mapping iterations (forward + loss + backward + Adam) of the CPU engine on
+/// Gaussians spread over a room's surfaces, fitting a perturbed copy to the original's render.
+pub fn bench_render(
+    resolutions: &[(u32, u32)],
+    counts: &[usize],
+    iterations: usize,
+) -> std::result::Result<Vec<RenderBenchRow>, autonomy::splat::RenderError> {
+    use autonomy::adam::{Adam, LearningRates};
+    use autonomy::loss::{mapping_loss, Target};
+    use autonomy::splat::cpu;
+    use autonomy::synthetic::{room_camera, room_surface};
+    let mut rows = Vec::new();
+    for &count in counts {
+        let truth = room_surface(count, 1);
+        let mut fitted = room_surface(count, 1);
+        for (i, m) in fitted.means.iter_mut().enumerate() {
+            // A few millimetres off, so every Gaussian has a gradient.
+            m[i % 3] += 0.004 * (((i * 7919) % 13) as f32 / 6.0 - 1.0);
+        }
+        for &(width, height) in resolutions {
+            let camera = room_camera(width, height);
+            let target = cpu::render(&truth, &camera)?.images;
+            let mut gaussians = fitted.clone();
+            let mut adam = Adam::new(LearningRates::default());
+            let mut samples: Vec<[f64; 4]> = Vec::new();
+            let (mut visible, mut pairs) = (0, 0);
+            for _ in 0..iterations + 1 {
+                let t0 = Instant::now();
+                let render = cpu::render(&gaussians, &camera)?;
+                let t1 = Instant::now();
+                let (_, image_grads) = mapping_loss(
+                    &render.images,
+                    Target {
+                        colour: &target.colour,
+                        depth: &target.depth,
+                    },
+                );
+                let t2 = Instant::now();
+                let grads = cpu::backward(&render, &image_grads)?;
+                let t3 = Instant::now();
+                adam.step(&mut gaussians, &grads);
+                let t4 = Instant::now();
+                visible = render.visible_count();
+                pairs = render.tile_pair_count();
+                samples.push([t1 - t0, t2 - t1, t3 - t2, t4 - t3].map(|d| d.as_secs_f64()));
+            }
+            samples.remove(0); // warm-up
+            let median = |stage: usize| {
+                let mut v: Vec<f64> = samples.iter().map(|s| s[stage]).collect();
+                v.sort_by(f64::total_cmp);
+                v[v.len() / 2]
+            };
+            rows.push(RenderBenchRow {
+                resolution: (width, height),
+                gaussians: count,
+                visible,
+                pairs,
+                stages: [median(0), median(1), median(2), median(3)],
+            });
+        }
+    }
+    Ok(rows)
+}

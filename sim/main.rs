@@ -32,9 +32,15 @@ enum Command {
         /// World to measure in.
         #[arg(long, default_value = "worlds/room.xml")]
         world: PathBuf,
-        /// Frames timed per resolution.
+        /// Frames timed per resolution (sensor).
         #[arg(long, default_value_t = 300)]
         frames: usize,
+        /// Timed iterations per row (render), after one warm-up.
+        #[arg(long, default_value_t = 5)]
+        iterations: usize,
+        /// Gaussian counts (render).
+        #[arg(long, value_delimiter = ',', default_value = "10000,100000,1000000")]
+        gaussians: Vec<usize>,
     },
 }
 
@@ -42,6 +48,8 @@ enum Command {
 enum BenchTarget {
     /// RGB-D frames/s at 320x240 and 640x480, physics steps/s.
     Sensor,
+    /// One mapping iteration (forward + loss + backward + Adam) of the CPU splat engine.
+    Render,
 }
 
 #[derive(clap::Args)]
@@ -121,7 +129,18 @@ fn run(command: Command) -> Result<()> {
             what,
             world,
             frames,
+            iterations,
+            gaussians,
         } => match what {
+            BenchTarget::Render => {
+                let rows = splatloop::bench::bench_render(
+                    &[(320, 240), (640, 480)],
+                    &gaussians,
+                    iterations.max(1),
+                )?;
+                print_render_bench(&rows);
+                Ok(())
+            }
             BenchTarget::Sensor => {
                 let (device, rows) = splatloop::bench::bench_sensor(&world, frames.max(1))?;
                 println!("device: {device}");
@@ -149,6 +168,32 @@ fn run(command: Command) -> Result<()> {
                 Ok(())
             }
         },
+    }
+}
+
+fn print_render_bench(rows: &[splatloop::bench::RenderBenchRow]) {
+    println!(
+        "engine: cpu ({} rayon threads)",
+        rayon::current_num_threads()
+    );
+    println!("| resolution | Gaussians | visible | pixel-splat pairs | forward ms | loss ms | backward ms | Adam ms | iteration ms | pairs/s (M) |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in rows {
+        let ms = r.stages.map(|s| s * 1e3);
+        println!(
+            "| {}x{} | {} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.0} |",
+            r.resolution.0,
+            r.resolution.1,
+            r.gaussians,
+            r.visible,
+            r.pairs,
+            ms[0],
+            ms[1],
+            ms[2],
+            ms[3],
+            r.iteration() * 1e3,
+            r.pairs as f64 / r.iteration() / 1e6
+        );
     }
 }
 

@@ -11,3 +11,4 @@ pub mod math;
 pub mod metrics;
 pub mod splat;
 pub mod ssim;
+pub mod synthetic;

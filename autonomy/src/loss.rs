@@ -3,6 +3,7 @@
 
 use crate::splat::{ImageGradients, Images};
 use crate::ssim::{ssim_channel, Real};
+use rayon::prelude::*;
 
 /// Weight of the colour L1 term (lambda1).
 pub const COLOUR_WEIGHT: f32 = 0.4;
@@ -88,17 +89,21 @@ pub fn loss_generic<F: Real>(
         colour_l1 = colour_l1 + d.abs() * inv3;
         colour_grad[i] = f(COLOUR_WEIGHT) * sign(d) * inv3;
     }
-    // SSIM per channel, averaged; the loss carries -lambda2 / 3 per channel mean.
+    // SSIM per channel (in parallel), averaged; the loss carries -lambda2 / 3 per channel.
+    let per_channel: Vec<(F, Vec<F>)> = (0..3)
+        .into_par_iter()
+        .map(|c| {
+            let x: Vec<F> = (0..n).map(|p| rendered_colour[3 * p + c]).collect();
+            let y: Vec<F> = (0..n).map(|p| target_colour[3 * p + c]).collect();
+            let mut g = vec![F::zero(); n];
+            let scale = -f(SSIM_WEIGHT) / f(3.0);
+            let mean = ssim_channel(&x, &y, width, height, scale, &mut g);
+            (mean, g)
+        })
+        .collect();
     let mut ssim = F::zero();
-    let (mut x, mut y, mut g) = (vec![F::zero(); n], vec![F::zero(); n], vec![F::zero(); n]);
-    for c in 0..3 {
-        for p in 0..n {
-            x[p] = rendered_colour[3 * p + c];
-            y[p] = target_colour[3 * p + c];
-            g[p] = F::zero();
-        }
-        let scale = -f(SSIM_WEIGHT) / f(3.0);
-        ssim = ssim + ssim_channel(&x, &y, width, height, scale, &mut g) / f(3.0);
+    for (c, (mean, g)) in per_channel.iter().enumerate() {
+        ssim = ssim + *mean / f(3.0);
         for p in 0..n {
             colour_grad[3 * p + c] = colour_grad[3 * p + c] + g[p];
         }
