@@ -68,6 +68,21 @@ fn alpha(g: &Projected, x: f64, y: f64) -> (f64, bool) {
     }
 }
 
+/// Validates the inputs, projects, and returns the image size.
+fn prepare(
+    gaussians: &Gaussians,
+    camera: &PinholeCamera,
+) -> Result<(Vec<Projected>, usize, usize), RenderError> {
+    gaussians.validate()?;
+    validate_camera(camera)?;
+    let k = &camera.intrinsics;
+    Ok((
+        project(gaussians, camera),
+        k.width as usize,
+        k.height as usize,
+    ))
+}
+
 /// Composites one pixel: (r, g, b, depth, silhouette), the contributing slots front to back,
 /// and the transmittance left.
 fn composite_pixel(projected: &[Projected], x: f64, y: f64) -> ([f64; 5], Vec<usize>, f64) {
@@ -101,13 +116,7 @@ pub fn render(
     gaussians: &Gaussians,
     camera: &PinholeCamera,
 ) -> Result<(Images, Vec<[f64; 5]>), RenderError> {
-    gaussians.validate()?;
-    validate_camera(camera)?;
-    let (w, h) = (
-        camera.intrinsics.width as usize,
-        camera.intrinsics.height as usize,
-    );
-    let projected = project(gaussians, camera);
+    let (projected, w, h) = prepare(gaussians, camera)?;
     let mut images = Images::zeros(w, h);
     let mut exact = vec![[0.0; 5]; w * h];
     for y in 0..h {
@@ -132,13 +141,7 @@ pub fn contributors(
     gaussians: &Gaussians,
     camera: &PinholeCamera,
 ) -> Result<Vec<Vec<usize>>, RenderError> {
-    gaussians.validate()?;
-    validate_camera(camera)?;
-    let (w, h) = (
-        camera.intrinsics.width as usize,
-        camera.intrinsics.height as usize,
-    );
-    let projected = project(gaussians, camera);
+    let (projected, w, h) = prepare(gaussians, camera)?;
     let mut sets = Vec::with_capacity(w * h);
     for y in 0..h {
         for x in 0..w {
@@ -155,12 +158,9 @@ pub fn backward(
     camera: &PinholeCamera,
     image_gradients: &ImageGradients,
 ) -> Result<Gradients, RenderError> {
-    gaussians.validate()?;
-    validate_camera(camera)?;
-    let k = &camera.intrinsics;
-    let (w, h) = (k.width as usize, k.height as usize);
+    let (projected, w, h) = prepare(gaussians, camera)?;
     image_gradients.check(w * h)?;
-    let projected = project(gaussians, camera);
+    let k = &camera.intrinsics;
     let n = gaussians.len();
     // Per Gaussian: d/du, d/dv, d/dradius_px, d/dopacity, d/dcolour (3), d/ddepth.
     let mut screen = vec![[0.0f64; 8]; n];
