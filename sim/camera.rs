@@ -193,18 +193,10 @@ impl RgbdCamera {
         };
         frame.rgb.resize(3 * w * h, 0);
         frame.depth.resize(w * h, 0.0);
-        // OpenGL rows run bottom to top; images run top to bottom.
-        for row in 0..h {
-            let src = h - 1 - row;
-            frame.rgb[3 * w * row..3 * w * (row + 1)]
-                .copy_from_slice(&self.raw_rgb[3 * w * src..3 * w * (src + 1)]);
-            let depth_row = &mut frame.depth[w * row..w * (row + 1)];
-            for (out, &z) in depth_row
-                .iter_mut()
-                .zip(&self.raw_depth[w * src..w * (src + 1)])
-            {
-                *out = self.metric_depth(z);
-            }
+        flip_rows(&self.raw_rgb, &mut frame.rgb, 3 * w);
+        flip_rows(&self.raw_depth, &mut frame.depth, w);
+        for d in &mut frame.depth {
+            *d = self.metric_depth(*d);
         }
         if let Some((normal, rng)) = &mut self.noise {
             for d in frame.depth.iter_mut().filter(|d| **d > 0.0) {
@@ -230,18 +222,22 @@ impl RgbdCamera {
     /// The geom id seen at each pixel (rows top to bottom, -1 for nothing): ground truth for
     /// tests and segmentation datasets.
     pub fn capture_geom_ids(&mut self, data: &Data) -> Result<Vec<i32>> {
-        let (w, h) = (
-            self.intrinsics.width as usize,
-            self.intrinsics.height as usize,
-        );
-        let mut raw = vec![-1; w * h];
+        let mut raw = vec![-1; self.intrinsics.pixel_count()];
         self.renderer
             .render_geom_ids(data, self.camera_id, &mut raw)?;
-        let mut ids = vec![-1; w * h];
-        for row in 0..h {
-            let src = h - 1 - row;
-            ids[w * row..w * (row + 1)].copy_from_slice(&raw[w * src..w * (src + 1)]);
-        }
+        let mut ids = vec![-1; raw.len()];
+        flip_rows(&raw, &mut ids, self.intrinsics.width as usize);
         Ok(ids)
+    }
+}
+
+/// Copies `src` into `dst` with the row order reversed: OpenGL rows run bottom to top, images
+/// top to bottom.
+fn flip_rows<T: Copy>(src: &[T], dst: &mut [T], row_len: usize) {
+    for (dst_row, src_row) in dst
+        .chunks_exact_mut(row_len)
+        .zip(src.chunks_exact(row_len).rev())
+    {
+        dst_row.copy_from_slice(src_row);
     }
 }
