@@ -163,9 +163,9 @@ impl RgbdCamera {
         )
     }
 
-    /// Renders the current state.
-    pub fn capture(&mut self, data: &Data) -> Result<RgbdFrame> {
-        let mut frame = RgbdFrame {
+    /// An empty frame for [`RgbdCamera::capture_into`] to fill, so loops render once per frame.
+    pub fn blank_frame(&self) -> RgbdFrame {
+        RgbdFrame {
             time: 0.0,
             rgb: Vec::new(),
             depth: Vec::new(),
@@ -173,7 +173,12 @@ impl RgbdCamera {
                 intrinsics: self.intrinsics,
                 world_from_camera: Isometry3::identity(),
             },
-        };
+        }
+    }
+
+    /// Renders the current state.
+    pub fn capture(&mut self, data: &Data) -> Result<RgbdFrame> {
+        let mut frame = self.blank_frame();
         self.capture_into(data, &mut frame)?;
         Ok(frame)
     }

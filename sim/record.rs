@@ -121,7 +121,7 @@ pub fn record(config: &RecordConfig, on_progress: &mut dyn FnMut(f64)) -> Result
     let frame_period = 1.0 / config.frame_rate;
     let mut next_frame = 0.0;
     let mut collision_steps = 0;
-    let mut frame = camera.capture(world.data())?;
+    let mut frame = camera.blank_frame();
     for step in 0..=steps {
         // Capture at the frame times, then act on the schedule for the next step.
         let time = world.data().time();
