@@ -25,12 +25,11 @@ fn window<F: Real>() -> [F; 2 * RADIUS + 1] {
 
 /// Separable zero-padded Gaussian blur of a W x H image. The window is symmetric, so this
 /// operator is its own adjoint: the same call back-propagates through it.
-fn blur<F: Real>(image: &[F], w: usize, h: usize, scratch: &mut Vec<F>, out: &mut Vec<F>) {
+fn blur<F: Real>(image: &[F], w: usize, h: usize, scratch: &mut Vec<F>) -> Vec<F> {
     let k = window::<F>();
     scratch.clear();
     scratch.resize(w * h, F::zero());
-    out.clear();
-    out.resize(w * h, F::zero());
+    let mut out = vec![F::zero(); w * h];
     // Rows: out[x] += k[t] * in[x + t - R], for the x where the source exists.
     for y in 0..h {
         let src = &image[y * w..(y + 1) * w];
@@ -62,17 +61,15 @@ fn blur<F: Real>(image: &[F], w: usize, h: usize, scratch: &mut Vec<F>, out: &mu
             }
         }
     }
+    out
 }
 
 /// Mean SSIM of single-channel images `x` (rendered) and `y` (target), W x H, and
 /// `d mean / d x` scaled by `scale` added into `grad`.
 pub fn ssim_channel<F: Real>(x: &[F], y: &[F], w: usize, h: usize, scale: F, grad: &mut [F]) -> F {
     let n = w * h;
-    let (mut scratch, mut tmp) = (Vec::new(), Vec::new());
-    let mut blurred = |img: &[F]| {
-        blur(img, w, h, &mut scratch, &mut tmp);
-        tmp.clone()
-    };
+    let mut scratch = Vec::new();
+    let mut blurred = |img: &[F]| blur(img, w, h, &mut scratch);
     let mu_x = blurred(x);
     let mu_y = blurred(y);
     let xx: Vec<F> = x.iter().map(|v| *v * *v).collect();
