@@ -215,7 +215,6 @@ fn run_record(args: RecordArgs) -> Result<()> {
         overwrite: args.overwrite,
         out: args.out,
     };
-    config.validate()?;
     let bar = ProgressBar::new((config.duration * 1000.0).round() as u64);
     bar.set_style(
         ProgressStyle::with_template(
