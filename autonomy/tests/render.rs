@@ -5,16 +5,7 @@ mod support;
 
 use autonomy::gaussians::{Gaussians, Gradients};
 use autonomy::splat::{cpu, reference, ImageGradients, RenderError};
-use support::{camera, random_weights, scene};
-
-/// A linear loss sum_p w . (C, D, S) has these per-pixel gradients.
-fn linear_loss_gradients(seed: u64, pixels: usize) -> ImageGradients {
-    ImageGradients {
-        colour: random_weights(seed, 3 * pixels),
-        depth: random_weights(seed + 1, pixels),
-        silhouette: random_weights(seed + 2, pixels),
-    }
-}
+use support::{assert_close, assert_gradients_close, camera, linear_loss_gradients, scene};
 
 fn linear_loss(exact: &[[f64; 5]], g: &ImageGradients) -> f64 {
     exact
@@ -111,49 +102,6 @@ fn reference_gradients_match_central_finite_differences() {
         straddled * 10 < compared,
         "{straddled} finite differences crossed a cut-off"
     );
-}
-
-fn assert_close(name: &str, engine: &[f32], reference: &[f32], tolerance: f32) {
-    assert_eq!(engine.len(), reference.len());
-    for (p, (a, b)) in engine.iter().zip(reference).enumerate() {
-        assert!(
-            (a - b).abs() <= tolerance,
-            "{name}[{p}]: engine {a}, reference {b}"
-        );
-    }
-}
-
-/// Gradients agree within `relative` of the largest gradient of the same kind.
-fn assert_gradients_close(engine: &Gradients, reference: &Gradients, relative: f32) {
-    let kinds: [(&str, Vec<f32>, Vec<f32>); 4] = [
-        ("means", engine.means.concat(), reference.means.concat()),
-        (
-            "log_radii",
-            engine.log_radii.clone(),
-            reference.log_radii.clone(),
-        ),
-        (
-            "logit_opacities",
-            engine.logit_opacities.clone(),
-            reference.logit_opacities.clone(),
-        ),
-        (
-            "colours",
-            engine.colours.concat(),
-            reference.colours.concat(),
-        ),
-    ];
-    for (name, e, r) in kinds {
-        let scale = r.iter().fold(0.0f32, |m, v| m.max(v.abs()));
-        assert!(scale > 0.0, "{name}: reference gradients all zero");
-        for (i, (a, b)) in e.iter().zip(&r).enumerate() {
-            assert!(
-                (a - b).abs() <= relative * scale,
-                "{name}[{i}]: engine {a}, reference {b} (scale {scale})"
-            );
-        }
-    }
-    assert_eq!(engine.touched, reference.touched);
 }
 
 #[test]

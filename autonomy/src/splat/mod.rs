@@ -2,11 +2,16 @@
 //! depth and silhouette images, and the gradients of any per-pixel loss.
 //!
 //! [`reference`] is a plain f64 scalar implementation of the equations, the ground truth for
-//! tests; [`cpu`] is the engine (16x16 tiles, depth-sorted per-tile lists, SIMD, rayon).
-//! Both apply the same cut-offs, so they render the same images.
+//! tests; [`cpu`] is the engine (16x16 tiles, depth-sorted per-tile lists, SIMD, rayon) and
+//! [`gpu`] the same structure in WGSL. All three apply the same cut-offs, so they render the
+//! same images; [`Rasteriser`] picks the engine.
 
 pub mod cpu;
+mod engine;
+pub mod gpu;
 pub mod reference;
+
+pub use engine::{EngineChoice, Rasteriser, Rendered};
 
 use crate::camera::PinholeCamera;
 use crate::gaussians::GaussianError;
@@ -32,6 +37,12 @@ pub enum RenderError {
     /// The camera cannot form an image.
     #[error("invalid camera: {0}")]
     Camera(String),
+    /// The GPU engine failed (validation, memory, device loss) or the scene exceeds its limits.
+    #[error("GPU engine: {0}")]
+    Gpu(String),
+    /// A render from one engine was handed to another engine's backward pass.
+    #[error("this render came from the {0} engine; run backward on the engine that rendered it")]
+    EngineMismatch(&'static str),
     /// Per-pixel gradient images of the wrong size.
     #[error("gradient images have {got} pixels, the render has {expected}")]
     GradientSize {

@@ -1,0 +1,121 @@
+//! Choosing between the CPU and the wgpu engine, and calling whichever was chosen.
+
+use super::gpu::{AdapterPolicy, GpuRasteriser, GpuRender};
+use super::{cpu, ImageGradients, Images, RenderError};
+use crate::camera::PinholeCamera;
+use crate::gaussians::{Gaussians, Gradients};
+use std::str::FromStr;
+
+/// What the user asked for (`--engine`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum EngineChoice {
+    /// The GPU engine on a hardware GPU, else the CPU engine.
+    #[default]
+    Auto,
+    /// The CPU engine.
+    Cpu,
+    /// The GPU engine on any adapter, software ones included; the CPU engine (with a
+    /// warning) when there is none.
+    Gpu,
+}
+
+impl FromStr for EngineChoice {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "auto" => Ok(EngineChoice::Auto),
+            "cpu" => Ok(EngineChoice::Cpu),
+            "gpu" => Ok(EngineChoice::Gpu),
+            other => Err(format!("unknown engine {other:?}; use auto, cpu or gpu")),
+        }
+    }
+}
+
+/// The engine in use.
+#[derive(Debug)]
+pub enum Rasteriser {
+    /// The native CPU engine.
+    Cpu,
+    /// The wgpu engine.
+    Gpu(Box<GpuRasteriser>),
+}
+
+/// A forward pass of either engine.
+#[derive(Debug)]
+pub enum Rendered {
+    /// From the CPU engine.
+    Cpu(cpu::Render),
+    /// From the wgpu engine.
+    Gpu(GpuRender),
+}
+
+impl Rendered {
+    /// The images.
+    pub fn images(&self) -> &Images {
+        match self {
+            Rendered::Cpu(r) => &r.images,
+            Rendered::Gpu(r) => &r.images,
+        }
+    }
+}
+
+impl Rasteriser {
+    /// Picks the engine for `choice`. Never fails: without a usable adapter it logs why and
+    /// returns the CPU engine (a warning when the GPU was asked for explicitly).
+    pub fn select(choice: EngineChoice) -> Self {
+        let policy = match choice {
+            EngineChoice::Cpu => return Rasteriser::Cpu,
+            EngineChoice::Auto => AdapterPolicy::HardwareOnly,
+            EngineChoice::Gpu => AdapterPolicy::AllowSoftware,
+        };
+        match GpuRasteriser::new(policy, None) {
+            Ok(gpu) => {
+                tracing::info!("splat engine: gpu on {}", gpu.describe());
+                Rasteriser::Gpu(Box::new(gpu))
+            }
+            Err(e) if choice == EngineChoice::Gpu => {
+                tracing::warn!("--engine gpu: {e}; falling back to the CPU engine");
+                Rasteriser::Cpu
+            }
+            Err(e) => {
+                tracing::info!("splat engine: cpu ({e})");
+                Rasteriser::Cpu
+            }
+        }
+    }
+
+    /// "cpu" or "gpu (adapter)".
+    pub fn describe(&self) -> String {
+        match self {
+            Rasteriser::Cpu => format!("cpu ({} threads)", rayon::current_num_threads()),
+            Rasteriser::Gpu(g) => format!("gpu: {}", g.describe()),
+        }
+    }
+
+    /// Renders colour, depth and silhouette.
+    pub fn render(
+        &self,
+        gaussians: &Gaussians,
+        camera: &PinholeCamera,
+    ) -> Result<Rendered, RenderError> {
+        match self {
+            Rasteriser::Cpu => cpu::render(gaussians, camera).map(Rendered::Cpu),
+            Rasteriser::Gpu(g) => g.render(gaussians, camera).map(Rendered::Gpu),
+        }
+    }
+
+    /// Gradients of a per-pixel loss with respect to every parameter.
+    pub fn backward(
+        &self,
+        rendered: &Rendered,
+        image_gradients: &ImageGradients,
+    ) -> Result<Gradients, RenderError> {
+        match (self, rendered) {
+            (Rasteriser::Cpu, Rendered::Cpu(r)) => cpu::backward(r, image_gradients),
+            (Rasteriser::Gpu(g), Rendered::Gpu(r)) => g.backward(r, image_gradients),
+            (_, Rendered::Cpu(_)) => Err(RenderError::EngineMismatch("cpu")),
+            (_, Rendered::Gpu(_)) => Err(RenderError::EngineMismatch("gpu")),
+        }
+    }
+}

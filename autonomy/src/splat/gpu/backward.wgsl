@@ -1,0 +1,150 @@
+// Back-to-front gradients: one 16x16 workgroup per tile, one thread per pixel. For each splat
+// of the tile's list (from the last contributor of any pixel backwards) every pixel computes
+// its share of the splat's 8 screen-space gradients; the workgroup sums them in shared memory
+// and one thread adds the sum to the splat's totals with a compare-and-swap float add (WGSL has
+// no float atomics), so each (tile, splat) pair costs one atomic per gradient, not one per pixel.
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> splats: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> pair_splats: array<u32>;
+@group(0) @binding(3) var<storage, read> ranges: array<u32>;
+@group(0) @binding(4) var<storage, read> pixels: array<f32>;
+// Per pixel: d loss / d (r, g, b, depth, silhouette).
+@group(0) @binding(5) var<storage, read> pixel_gradients: array<f32>;
+// Per splat: 8 gradients as f32 bits, then a touched flag.
+@group(0) @binding(6) var<storage, read_write> screen: array<atomic<u32>>;
+
+const BATCH: u32 = 64u;
+
+var<workgroup> shape: array<vec4<f32>, BATCH>;
+var<workgroup> colour: array<vec4<f32>, BATCH>;
+var<workgroup> radius: array<f32, BATCH>;
+var<workgroup> index: array<u32, BATCH>;
+var<workgroup> partial: array<array<f32, 8>, 256>;
+var<workgroup> flag: atomic<u32>;
+var<workgroup> snapshot: u32;
+
+fn atomic_add_f32(slot: u32, value: f32) {
+    var old = atomicLoad(&screen[slot]);
+    loop {
+        let swap = atomicCompareExchangeWeak(&screen[slot], old, bitcast<u32>(bitcast<f32>(old) + value));
+        if (swap.exchanged) {
+            break;
+        }
+        old = swap.old_value;
+    }
+}
+
+@compute @workgroup_size(16, 16)
+fn backward(
+    @builtin(local_invocation_id) local: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    let tile_y = wid.y + params.band_start;
+    let tile = tile_y * params.tiles_x + wid.x;
+    let x = wid.x * TILE + local.x;
+    let y = tile_y * TILE + local.y;
+    let inside = x < params.width && y < params.height;
+    let start = ranges[2u * tile];
+    let end = max(ranges[2u * tile + 1u], start);
+    var transmittance = 1.0;
+    var count = 0u;
+    var grad = array<f32, 5>(0.0, 0.0, 0.0, 0.0, 0.0);
+    if (inside) {
+        let p = (y - params.band_start * TILE) * params.width + x;
+        transmittance = pixels[7u * p + 5u];
+        count = bitcast<u32>(pixels[7u * p + 6u]);
+        for (var k = 0u; k < 5u; k++) {
+            grad[k] = pixel_gradients[5u * p + k];
+        }
+    }
+    // Colour, depth and silhouette composited behind the current splat.
+    var behind = array<f32, 5>(0.0, 0.0, 0.0, 0.0, 0.0);
+    if (lid == 0u) {
+        atomicStore(&flag, 0u);
+    }
+    workgroupBarrier();
+    atomicMax(&flag, count);
+    workgroupBarrier();
+    if (lid == 0u) {
+        snapshot = atomicLoad(&flag);
+        atomicStore(&flag, 0u);
+    }
+    let last = min(workgroupUniformLoad(&snapshot), end - start);
+    var top = last;
+    while (top > 0u) {
+        let first = select(0u, top - BATCH, top > BATCH);
+        let batch = top - first;
+        if (lid < batch) {
+            let s = pair_splats[start + first + lid];
+            shape[lid] = splats[3u * s];
+            let s1 = splats[3u * s + 1u];
+            colour[lid] = vec4<f32>(splats[3u * s + 2u].xyz, s1.x);
+            radius[lid] = s1.z;
+            index[lid] = s;
+        }
+        workgroupBarrier();
+        for (var jj = 0u; jj < batch; jj++) {
+            let j = batch - 1u - jj;
+            let position = first + j;
+            let sh = shape[j];
+            let dx = f32(x) - sh.x;
+            let dy = f32(y) - sh.y;
+            let raw = sh.w * exp((dx * dx + dy * dy) * sh.z * -0.5);
+            let a = min(raw, params.max_alpha);
+            let valid = inside && a >= params.min_alpha && position < count;
+            var g = array<f32, 8>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+            if (valid) {
+                atomicOr(&flag, 1u);
+                // Transmittance in front of this splat, undone from the one behind it.
+                let t = transmittance / (1.0 - a);
+                transmittance = t;
+                let weight = a * t;
+                let c = colour[j];
+                let values = array<f32, 5>(c.x, c.y, c.z, c.w, 1.0);
+                var d_alpha = 0.0;
+                for (var k = 0u; k < 5u; k++) {
+                    d_alpha += grad[k] * (values[k] - behind[k]);
+                    behind[k] = a * values[k] + (1.0 - a) * behind[k];
+                }
+                d_alpha *= t;
+                g[4] = grad[0] * weight;
+                g[5] = grad[1] * weight;
+                g[6] = grad[2] * weight;
+                g[7] = grad[3] * weight;
+                // The 0.99 clamp cuts the gradient to the Gaussian's shape and opacity.
+                if (raw <= params.max_alpha) {
+                    let d_q = d_alpha * a * -0.5;
+                    g[0] = d_q * -2.0 * dx * sh.z;
+                    g[1] = d_q * -2.0 * dy * sh.z;
+                    g[2] = d_q * (-2.0 / radius[j]) * (dx * dx + dy * dy) * sh.z;
+                    g[3] = d_alpha * a * (1.0 / sh.w);
+                }
+            }
+            partial[lid] = g;
+            workgroupBarrier();
+            if (lid == 0u) {
+                snapshot = atomicLoad(&flag);
+                atomicStore(&flag, 0u);
+            }
+            if (workgroupUniformLoad(&snapshot) != 0u) {
+                for (var stride = GROUP / 2u; stride > 0u; stride /= 2u) {
+                    if (lid < stride) {
+                        for (var k = 0u; k < 8u; k++) {
+                            partial[lid][k] += partial[lid + stride][k];
+                        }
+                    }
+                    workgroupBarrier();
+                }
+                if (lid < 8u) {
+                    atomic_add_f32(9u * index[j] + lid, partial[0][lid]);
+                } else if (lid == 8u) {
+                    atomicOr(&screen[9u * index[j] + 8u], 1u);
+                }
+            }
+            workgroupBarrier();
+        }
+        top = first;
+    }
+}

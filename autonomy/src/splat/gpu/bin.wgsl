@@ -1,0 +1,75 @@
+// Binning splats into the tiles of one band of tile rows: count the (tile, splat) pairs of
+// each splat, then (after an exclusive scan of the counts) emit them, then (after the sort)
+// find where each tile's run of pairs starts and ends.
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> splats: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> rects: array<vec4<u32>>;
+// Pair count per splat, scanned in place into each splat's first pair.
+@group(0) @binding(3) var<storage, read_write> offsets: array<u32>;
+@group(0) @binding(4) var<storage, read_write> pair_tiles: array<u32>;
+@group(0) @binding(5) var<storage, read_write> pair_depths: array<u32>;
+@group(0) @binding(6) var<storage, read_write> pair_splats: array<u32>;
+// Per tile of the whole image: first pair, one past the last.
+@group(0) @binding(7) var<storage, read_write> ranges: array<u32>;
+
+// Rows of the rectangle inside the band, as (first, one past last); empty when first >= last.
+fn band_rows(r: vec4<u32>) -> vec2<u32> {
+    return vec2<u32>(max(r.z, params.band_start), min(r.w + 1u, params.band_end));
+}
+
+@compute @workgroup_size(256)
+fn count_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(gid, groups);
+    if (i >= params.count) {
+        return;
+    }
+    let r = rects[i];
+    let rows = band_rows(r);
+    if (r.x > r.y || rows.x >= rows.y) {
+        offsets[i] = 0u;
+    } else {
+        offsets[i] = (r.y - r.x + 1u) * (rows.y - rows.x);
+    }
+}
+
+@compute @workgroup_size(256)
+fn emit_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(gid, groups);
+    if (i >= params.count) {
+        return;
+    }
+    let r = rects[i];
+    let rows = band_rows(r);
+    if (r.x > r.y || rows.x >= rows.y) {
+        return;
+    }
+    // Positive floats order like their bits; ties keep splat order (the sort is stable).
+    let depth = bitcast<u32>(splats[3u * i + 1u].x);
+    var o = offsets[i];
+    for (var ty = rows.x; ty < rows.y; ty++) {
+        for (var tx = r.x; tx <= r.y; tx++) {
+            pair_tiles[o] = ty * params.tiles_x + tx;
+            pair_depths[o] = depth;
+            pair_splats[o] = i;
+            o++;
+        }
+    }
+}
+
+// `params.count` holds the number of pairs here.
+@compute @workgroup_size(256)
+fn tile_ranges(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = linear_index(gid, groups);
+    let n = params.count;
+    if (i >= n) {
+        return;
+    }
+    let t = pair_tiles[i];
+    if (i == 0u || pair_tiles[i - 1u] != t) {
+        ranges[2u * t] = i;
+    }
+    if (i == n - 1u || pair_tiles[i + 1u] != t) {
+        ranges[2u * t + 1u] = i + 1u;
+    }
+}

@@ -1,0 +1,273 @@
+//! Opening a wgpu device for compute, and the small buffer chores every kernel needs
+//! (storage buffers, uniforms, read-back), with wgpu's errors turned into values.
+
+use std::sync::{Arc, Mutex};
+use wgpu::util::DeviceExt;
+
+/// Which adapters may serve the GPU engine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AdapterPolicy {
+    /// Only a hardware GPU (discrete, integrated or virtual): what `--engine auto` wants.
+    HardwareOnly,
+    /// A hardware GPU if there is one, else a software rasteriser such as lavapipe.
+    AllowSoftware,
+}
+
+/// Why no GPU device could be opened or a GPU operation failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum GpuError {
+    /// No adapter fits the policy.
+    #[error("no usable GPU adapter ({0})")]
+    NoAdapter(String),
+    /// The adapter refused a device.
+    #[error("the GPU adapter refused a device: {0}")]
+    Device(String),
+    /// wgpu reported a validation, memory or device-loss error.
+    #[error("GPU error: {0}")]
+    Operation(String),
+    /// The problem does not fit this adapter's limits even after splitting.
+    #[error("{0}")]
+    TooLarge(String),
+}
+
+/// A device and queue, with the adapter they came from.
+pub struct GpuDevice {
+    /// The device.
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// Name, backend and type of the adapter.
+    pub info: wgpu::AdapterInfo,
+    /// Largest storage binding, bytes (the adapter's, or lower when asked).
+    pub max_binding: u64,
+    errors: Arc<Mutex<Vec<String>>>,
+}
+
+impl std::fmt::Debug for GpuDevice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "GpuDevice({})", self.describe())
+    }
+}
+
+fn is_hardware(info: &wgpu::AdapterInfo) -> bool {
+    matches!(
+        info.device_type,
+        wgpu::DeviceType::DiscreteGpu
+            | wgpu::DeviceType::IntegratedGpu
+            | wgpu::DeviceType::VirtualGpu
+    )
+}
+
+/// Picks an adapter: `WGPU_ADAPTER_NAME` when set, else the best hardware GPU, else (if the
+/// policy allows) a software one. `WGPU_BACKEND` and the other wgpu variables apply.
+fn pick_adapter(
+    instance: &wgpu::Instance,
+    policy: AdapterPolicy,
+) -> Result<wgpu::Adapter, GpuError> {
+    if std::env::var_os("WGPU_ADAPTER_NAME").is_some() {
+        return pollster::block_on(wgpu::util::initialize_adapter_from_env(instance, None))
+            .map_err(|e| GpuError::NoAdapter(format!("WGPU_ADAPTER_NAME matched none: {e}")));
+    }
+    let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+    let rank = |a: &wgpu::Adapter| match a.get_info().device_type {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Cpu => 3,
+        wgpu::DeviceType::Other => 4,
+    };
+    let seen: Vec<String> = adapters
+        .iter()
+        .map(|a| {
+            let i = a.get_info();
+            format!("{} ({:?}, {:?})", i.name, i.device_type, i.backend)
+        })
+        .collect();
+    let best = adapters
+        .into_iter()
+        .filter(|a| {
+            a.get_downlevel_capabilities()
+                .flags
+                .contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
+        })
+        .filter(|a| policy == AdapterPolicy::AllowSoftware || is_hardware(&a.get_info()))
+        .min_by_key(rank);
+    best.ok_or_else(|| {
+        let wanted = match policy {
+            AdapterPolicy::HardwareOnly => "a hardware GPU",
+            AdapterPolicy::AllowSoftware => "any compute-capable adapter",
+        };
+        if seen.is_empty() {
+            GpuError::NoAdapter(format!(
+                "wanted {wanted}; wgpu found no adapter at all (is a Vulkan driver installed? \
+                 scripts/setup.sh installs Mesa's lavapipe)"
+            ))
+        } else {
+            GpuError::NoAdapter(format!("wanted {wanted}; found {}", seen.join(", ")))
+        }
+    })
+}
+
+impl GpuDevice {
+    /// Opens a device with the adapter's own limits, optionally capping the storage binding
+    /// size (tests use a small cap to exercise splitting on small scenes).
+    pub fn open(policy: AdapterPolicy, binding_cap: Option<u64>) -> Result<Self, GpuError> {
+        let instance =
+            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let adapter = pick_adapter(&instance, policy)?;
+        let info = adapter.get_info();
+        let limits = adapter.limits();
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("splatloop splat engine"),
+            required_features: wgpu::Features::empty(),
+            required_limits: limits.clone(),
+            ..Default::default()
+        }))
+        .map_err(|e| GpuError::Device(e.to_string()))?;
+        let errors = Arc::new(Mutex::new(Vec::new()));
+        let sink = Arc::clone(&errors);
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            tracing::error!("wgpu: {e}");
+            if let Ok(mut list) = sink.lock() {
+                list.push(e.to_string());
+            }
+        }));
+        let adapter_max = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        let max_binding = binding_cap
+            .map_or(adapter_max, |cap| cap.min(adapter_max))
+            .max(256);
+        Ok(GpuDevice {
+            device,
+            queue,
+            info,
+            max_binding,
+            errors,
+        })
+    }
+
+    /// One line naming the adapter, e.g. for benchmark tables.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ({:?}, {:?}, driver {})",
+            self.info.name, self.info.device_type, self.info.backend, self.info.driver_info
+        )
+    }
+
+    /// Whether this is a software rasteriser (lavapipe, SwiftShader).
+    pub fn is_software(&self) -> bool {
+        !is_hardware(&self.info)
+    }
+
+    /// Returns the errors wgpu reported since the last check as one error.
+    pub fn check(&self) -> Result<(), GpuError> {
+        let mut list = self
+            .errors
+            .lock()
+            .map_err(|_| GpuError::Operation("error log poisoned".into()))?;
+        if list.is_empty() {
+            Ok(())
+        } else {
+            let all = list.join("; ");
+            list.clear();
+            Err(GpuError::Operation(all))
+        }
+    }
+
+    /// A storage buffer of at least `bytes` bytes (wgpu refuses empty bindings).
+    pub fn storage(&self, label: &str, bytes: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: bytes.max(16).next_multiple_of(4),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// A storage buffer holding `data` (padded when empty).
+    pub fn storage_with<T: bytemuck::Pod>(&self, label: &str, data: &[T]) -> wgpu::Buffer {
+        if data.is_empty() {
+            return self.storage(label, 16);
+        }
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytemuck::cast_slice(data),
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
+            })
+    }
+
+    /// A uniform buffer holding `value`.
+    pub fn uniform<T: bytemuck::Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytemuck::bytes_of(value),
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+    }
+
+    /// Submits `encoder` and copies the first `count` values of `source` back to the host.
+    pub fn read<T: bytemuck::Pod>(
+        &self,
+        mut encoder: wgpu::CommandEncoder,
+        source: &wgpu::Buffer,
+        count: usize,
+    ) -> Result<Vec<T>, GpuError> {
+        let bytes = (count * std::mem::size_of::<T>()) as u64;
+        if bytes == 0 {
+            self.queue.submit([encoder.finish()]);
+            self.check()?;
+            return Ok(Vec::new());
+        }
+        let padded = bytes.next_multiple_of(4);
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("read-back"),
+            size: padded,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        encoder.copy_buffer_to_buffer(source, 0, &staging, 0, padded);
+        self.queue.submit([encoder.finish()]);
+        let (sender, receiver) = std::sync::mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |result| {
+            // The receiver outlives the poll below; a failed send only means it gave up.
+            let _ = sender.send(result);
+        });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Operation(format!("waiting for the GPU: {e}")))?;
+        self.check()?;
+        receiver
+            .recv()
+            .map_err(|_| GpuError::Operation("read-back never completed".into()))?
+            .map_err(|e| GpuError::Operation(format!("mapping a read-back buffer: {e}")))?;
+        let view = staging
+            .get_mapped_range(..)
+            .map_err(|e| GpuError::Operation(format!("reading a mapped buffer: {e}")))?;
+        let values = bytemuck::pod_collect_to_vec::<u8, T>(&view[..bytes as usize]);
+        drop(view);
+        staging.unmap();
+        Ok(values)
+    }
+
+    /// Submits `encoder` and waits for it.
+    pub fn submit(&self, encoder: wgpu::CommandEncoder) -> Result<(), GpuError> {
+        self.queue.submit([encoder.finish()]);
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Operation(format!("waiting for the GPU: {e}")))?;
+        self.check()
+    }
+
+    /// A fresh command encoder.
+    pub fn encoder(&self) -> wgpu::CommandEncoder {
+        self.device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None })
+    }
+}

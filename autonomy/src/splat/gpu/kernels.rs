@@ -1,0 +1,241 @@
+//! The compiled WGSL kernels, their bind-group layouts, and the dispatch chores: 1-D grids
+//! wider than 65535 groups, the recursive exclusive scan, the radix-sort passes.
+
+use super::device::GpuDevice;
+use std::borrow::Cow;
+
+const COMMON: &str = include_str!("common.wgsl");
+/// Threads per group of the 1-D kernels (GROUP in common.wgsl).
+pub const GROUP: u32 = 256;
+const MAX_GROUPS_X: u32 = 65535;
+
+/// How a kernel sees one binding.
+#[derive(Clone, Copy)]
+enum Access {
+    Uniform,
+    Read,
+    Write,
+}
+
+/// A module's layout and its entry points' pipelines.
+pub struct Module {
+    layout: wgpu::BindGroupLayout,
+    pipelines: Vec<(&'static str, wgpu::ComputePipeline)>,
+}
+
+impl Module {
+    fn new(
+        gpu: &GpuDevice,
+        name: &str,
+        source: &str,
+        access: &[Access],
+        entries: &[&'static str],
+    ) -> Self {
+        let device = &gpu.device;
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some(name),
+            source: wgpu::ShaderSource::Wgsl(Cow::Owned(format!("{COMMON}\n{source}"))),
+        });
+        let layout_entries: Vec<wgpu::BindGroupLayoutEntry> = access
+            .iter()
+            .enumerate()
+            .map(|(binding, a)| wgpu::BindGroupLayoutEntry {
+                binding: binding as u32,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: match a {
+                        Access::Uniform => wgpu::BufferBindingType::Uniform,
+                        Access::Read => wgpu::BufferBindingType::Storage { read_only: true },
+                        Access::Write => wgpu::BufferBindingType::Storage { read_only: false },
+                    },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            })
+            .collect();
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some(name),
+            entries: &layout_entries,
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(name),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipelines = entries
+            .iter()
+            .map(|entry| {
+                let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: Some(&pipeline_layout),
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                });
+                (*entry, pipeline)
+            })
+            .collect();
+        Module { layout, pipelines }
+    }
+
+    fn pipeline(&self, entry: &str) -> &wgpu::ComputePipeline {
+        // Entry names are compile-time constants of this file; a miss is a programming error.
+        match self.pipelines.iter().find(|(name, _)| *name == entry) {
+            Some((_, p)) => p,
+            None => unreachable!("kernel {entry} was not compiled"),
+        }
+    }
+
+    /// Binds `buffers` in order (binding 0, 1, ...).
+    pub fn bind(&self, gpu: &GpuDevice, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &self.layout,
+            entries: &entries,
+        })
+    }
+
+    /// Records one dispatch of `entry` over `groups` workgroups.
+    pub fn dispatch(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        entry: &str,
+        bind: &wgpu::BindGroup,
+        groups: (u32, u32),
+    ) {
+        if groups.0 == 0 || groups.1 == 0 {
+            return;
+        }
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(entry),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(self.pipeline(entry));
+        pass.set_bind_group(0, bind, &[]);
+        pass.dispatch_workgroups(groups.0, groups.1, 1);
+    }
+}
+
+/// Workgroups for `n` items of a 1-D kernel: x capped at 65535, the rest in y.
+pub fn linear_groups(n: u32) -> (u32, u32) {
+    let groups = n.div_ceil(GROUP);
+    if groups <= MAX_GROUPS_X {
+        (groups, 1)
+    } else {
+        (MAX_GROUPS_X, groups.div_ceil(MAX_GROUPS_X))
+    }
+}
+
+/// Every kernel of the engine.
+pub struct Kernels {
+    /// project, chain.
+    pub project: Module,
+    /// count_pairs, emit_pairs, tile_ranges.
+    pub bin: Module,
+    /// scan_blocks, add_block_offsets.
+    pub scan: Module,
+    /// histogram_pass, scatter_pass.
+    pub sort: Module,
+    /// forward.
+    pub forward: Module,
+    /// backward.
+    pub backward: Module,
+}
+
+impl Kernels {
+    /// Compiles every kernel.
+    pub fn new(gpu: &GpuDevice) -> Self {
+        use Access::{Read, Uniform, Write};
+        Kernels {
+            project: Module::new(
+                gpu,
+                "project",
+                include_str!("project.wgsl"),
+                &[Uniform, Read, Write, Write, Read, Write],
+                &["project", "chain"],
+            ),
+            bin: Module::new(
+                gpu,
+                "bin",
+                include_str!("bin.wgsl"),
+                &[Uniform, Read, Read, Write, Write, Write, Write, Write],
+                &["count_pairs", "emit_pairs", "tile_ranges"],
+            ),
+            scan: Module::new(
+                gpu,
+                "scan",
+                include_str!("scan.wgsl"),
+                &[Uniform, Write, Write],
+                &["scan_blocks", "add_block_offsets"],
+            ),
+            sort: Module::new(
+                gpu,
+                "sort",
+                include_str!("sort.wgsl"),
+                &[Uniform, Read, Read, Read, Write, Write, Write, Write],
+                &["histogram_pass", "scatter_pass"],
+            ),
+            forward: Module::new(
+                gpu,
+                "forward",
+                include_str!("forward.wgsl"),
+                &[Uniform, Read, Read, Read, Write],
+                &["forward"],
+            ),
+            backward: Module::new(
+                gpu,
+                "backward",
+                include_str!("backward.wgsl"),
+                &[Uniform, Read, Read, Read, Read, Read, Write],
+                &["backward"],
+            ),
+        }
+    }
+
+    /// Records an in-place exclusive prefix sum of the first `n` u32 of `data`; returns a
+    /// buffer whose first value will hold the total once the encoder has run.
+    pub fn scan(
+        &self,
+        gpu: &GpuDevice,
+        encoder: &mut wgpu::CommandEncoder,
+        data: &wgpu::Buffer,
+        n: u32,
+    ) -> wgpu::Buffer {
+        // Level l scans blocks of level l's data and writes block totals to level l + 1.
+        let mut levels: Vec<(wgpu::Buffer, wgpu::Buffer, wgpu::BindGroup, u32)> = Vec::new();
+        let mut current = data.clone();
+        let mut count = n;
+        loop {
+            let blocks = count.div_ceil(GROUP).max(1);
+            let sums = gpu.storage("scan sums", u64::from(blocks) * 4);
+            let params = gpu.uniform("scan params", &[count, 0u32, 0, 0]);
+            let bind = self.scan.bind(gpu, &[&params, &current, &sums]);
+            self.scan
+                .dispatch(encoder, "scan_blocks", &bind, linear_groups(count.max(1)));
+            levels.push((current, sums.clone(), bind, count));
+            if blocks == 1 {
+                break;
+            }
+            current = sums;
+            count = blocks;
+        }
+        for (_, _, bind, count) in levels.iter().rev().skip(1) {
+            self.scan
+                .dispatch(encoder, "add_block_offsets", bind, linear_groups(*count));
+        }
+        match levels.pop() {
+            Some((_, total, _, _)) => total,
+            None => unreachable!("the scan loop runs at least once"),
+        }
+    }
+}

@@ -1,0 +1,75 @@
+// One pass of a stable least-significant-digit radix sort of (tile, depth, splat) pairs, 8 bits
+// at a time: the depth's four bytes first, then the tile's. Blocks of 256 pairs: `histogram`
+// counts each block's digits (digit-major, so one exclusive scan gives every block's first
+// slot per digit), `scatter` moves each pair to its slot, keeping the order of equal digits.
+
+struct SortParams {
+    n: u32,
+    blocks: u32,
+    shift: u32,
+    // 1: the digit comes from the tile, 0: from the depth.
+    from_tile: u32,
+}
+
+@group(0) @binding(0) var<uniform> sort: SortParams;
+@group(0) @binding(1) var<storage, read> in_tiles: array<u32>;
+@group(0) @binding(2) var<storage, read> in_depths: array<u32>;
+@group(0) @binding(3) var<storage, read> in_splats: array<u32>;
+@group(0) @binding(4) var<storage, read_write> histogram: array<u32>;
+@group(0) @binding(5) var<storage, read_write> out_tiles: array<u32>;
+@group(0) @binding(6) var<storage, read_write> out_depths: array<u32>;
+@group(0) @binding(7) var<storage, read_write> out_splats: array<u32>;
+
+var<workgroup> counts: array<atomic<u32>, 256>;
+var<workgroup> digits: array<u32, 256>;
+
+fn digit_of(i: u32) -> u32 {
+    let key = select(in_depths[i], in_tiles[i], sort.from_tile == 1u);
+    return (key >> sort.shift) & 255u;
+}
+
+@compute @workgroup_size(256)
+fn histogram_pass(
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let block = linear_group(wid, groups);
+    atomicStore(&counts[lid], 0u);
+    workgroupBarrier();
+    let i = block * GROUP + lid;
+    if (i < sort.n) {
+        atomicAdd(&counts[digit_of(i)], 1u);
+    }
+    workgroupBarrier();
+    histogram[lid * sort.blocks + block] = atomicLoad(&counts[lid]);
+}
+
+@compute @workgroup_size(256)
+fn scatter_pass(
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let block = linear_group(wid, groups);
+    let i = block * GROUP + lid;
+    let valid = i < sort.n;
+    var digit = 256u;
+    if (valid) {
+        digit = digit_of(i);
+    }
+    digits[lid] = digit;
+    workgroupBarrier();
+    if (!valid) {
+        return;
+    }
+    // Stable rank: equal digits earlier in the block.
+    var rank = 0u;
+    for (var j = 0u; j < lid; j++) {
+        rank += select(0u, 1u, digits[j] == digit);
+    }
+    let slot = histogram[digit * sort.blocks + block] + rank;
+    out_tiles[slot] = in_tiles[i];
+    out_depths[slot] = in_depths[i];
+    out_splats[slot] = in_splats[i];
+}
