@@ -88,14 +88,14 @@ pub fn bench_sensor(world_path: &Path, frames: usize) -> Result<(String, Vec<Sen
 /// One row of `bench render`.
 #[derive(Debug, Clone)]
 pub struct RenderBenchRow {
+    /// The engine, in words.
+    pub engine: String,
     /// Image width and height.
     pub resolution: (u32, u32),
     /// Gaussians in the scene.
     pub gaussians: usize,
-    /// Gaussians that survived culling.
-    pub visible: usize,
     /// (pixel, Gaussian) pairs the tile lists hold: the work of one forward pass.
-    pub pairs: usize,
+    pub pairs: u64,
     /// Median seconds of each stage: forward, loss, backward, Adam.
     pub stages: [f64; 4],
 }
@@ -107,16 +107,17 @@ impl RenderBenchRow {
     }
 }
 
-/// Times mapping iterations (forward + loss + backward + Adam) of the CPU engine on
-/// Gaussians spread over a room's surfaces, fitting a perturbed copy to the original's render.
+/// Times mapping iterations (forward + loss + backward + Adam) of `engine` on Gaussians spread
+/// over a room's surfaces, fitting a perturbed copy to the original's render.
 pub fn bench_render(
+    engine: &autonomy::splat::Rasteriser,
     resolutions: &[(u32, u32)],
     counts: &[usize],
     iterations: usize,
 ) -> std::result::Result<Vec<RenderBenchRow>, autonomy::splat::RenderError> {
     use autonomy::adam::{Adam, LearningRates};
     use autonomy::loss::{mapping_loss, Target};
-    use autonomy::splat::cpu;
+    use autonomy::splat::{cpu, TILE};
     use autonomy::synthetic::{room_camera, room_surface};
     let mut rows = Vec::new();
     for &count in counts {
@@ -132,25 +133,24 @@ pub fn bench_render(
             let mut gaussians = fitted.clone();
             let mut adam = Adam::new(LearningRates::default());
             let mut samples: Vec<[f64; 4]> = Vec::new();
-            let (mut visible, mut pairs) = (0, 0);
+            let mut pairs = 0;
             for _ in 0..iterations + 1 {
                 let t0 = Instant::now();
-                let render = cpu::render(&gaussians, &camera)?;
+                let render = engine.render(&gaussians, &camera)?;
                 let t1 = Instant::now();
                 let (_, image_grads) = mapping_loss(
-                    &render.images,
+                    render.images(),
                     Target {
                         colour: &target.colour,
                         depth: &target.depth,
                     },
                 );
                 let t2 = Instant::now();
-                let grads = cpu::backward(&render, &image_grads)?;
+                let grads = engine.backward(&render, &image_grads)?;
                 let t3 = Instant::now();
                 adam.step(&mut gaussians, &grads);
                 let t4 = Instant::now();
-                visible = render.visible_count();
-                pairs = render.tile_pair_count();
+                pairs = render.tile_pairs() * (TILE * TILE) as u64;
                 samples.push([t1 - t0, t2 - t1, t3 - t2, t4 - t3].map(|d| d.as_secs_f64()));
             }
             samples.remove(0); // warm-up
@@ -160,9 +160,9 @@ pub fn bench_render(
                 v[v.len() / 2]
             };
             rows.push(RenderBenchRow {
+                engine: engine.describe(),
                 resolution: (width, height),
                 gaussians: count,
-                visible,
                 pairs,
                 stages: [median(0), median(1), median(2), median(3)],
             });

@@ -1,6 +1,7 @@
 //! The `splatloop` command line.
 
 use anyhow::{Context, Result};
+use autonomy::splat::{EngineChoice, Rasteriser};
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 use splatloop::camera::SensorConfig;
@@ -41,6 +42,11 @@ enum Command {
         /// Gaussian counts (render).
         #[arg(long, value_delimiter = ',', default_value = "10000,100000,1000000")]
         gaussians: Vec<usize>,
+        /// Splat engines to time (render): cpu, gpu (any adapter, software included) or auto
+        /// (a hardware GPU if there is one); an engine that resolves to one already timed is
+        /// skipped.
+        #[arg(long, value_delimiter = ',', default_value = "cpu,auto")]
+        engine: Vec<String>,
     },
 }
 
@@ -48,7 +54,7 @@ enum Command {
 enum BenchTarget {
     /// RGB-D frames/s at 320x240 and 640x480, physics steps/s.
     Sensor,
-    /// One mapping iteration (forward + loss + backward + Adam) of the CPU splat engine.
+    /// One mapping iteration (forward + loss + backward + Adam) of each splat engine.
     Render,
 }
 
@@ -131,14 +137,27 @@ fn run(command: Command) -> Result<()> {
             frames,
             iterations,
             gaussians,
+            engine,
         } => match what {
             BenchTarget::Render => {
-                let rows = splatloop::bench::bench_render(
-                    &[(320, 240), (640, 480)],
-                    &gaussians,
-                    iterations.max(1),
-                )?;
-                print_render_bench(&rows);
+                let mut timed: Vec<String> = Vec::new();
+                for choice in &engine {
+                    let choice: EngineChoice = choice.parse().map_err(anyhow::Error::msg)?;
+                    let rasteriser = Rasteriser::select(choice);
+                    let name = rasteriser.describe();
+                    if timed.contains(&name) {
+                        println!("({choice:?} resolved to {name}, already timed)");
+                        continue;
+                    }
+                    let rows = splatloop::bench::bench_render(
+                        &rasteriser,
+                        &[(320, 240), (640, 480)],
+                        &gaussians,
+                        iterations.max(1),
+                    )?;
+                    print_render_bench(&name, &rows);
+                    timed.push(name);
+                }
                 Ok(())
             }
             BenchTarget::Sensor => {
@@ -171,21 +190,17 @@ fn run(command: Command) -> Result<()> {
     }
 }
 
-fn print_render_bench(rows: &[splatloop::bench::RenderBenchRow]) {
-    println!(
-        "engine: cpu ({} rayon threads)",
-        rayon::current_num_threads()
-    );
-    println!("| resolution | Gaussians | visible | pixel-splat pairs | forward ms | loss ms | backward ms | Adam ms | iteration ms | pairs/s (M) |");
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+fn print_render_bench(engine: &str, rows: &[splatloop::bench::RenderBenchRow]) {
+    println!("engine: {engine}");
+    println!("| resolution | Gaussians | pixel-splat pairs | forward ms | loss ms | backward ms | Adam ms | iteration ms | pairs/s (M) |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in rows {
         let ms = r.stages.map(|s| s * 1e3);
         println!(
-            "| {}x{} | {} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.0} |",
+            "| {}x{} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.0} |",
             r.resolution.0,
             r.resolution.1,
             r.gaussians,
-            r.visible,
             r.pairs,
             ms[0],
             ms[1],

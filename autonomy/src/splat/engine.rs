@@ -58,6 +58,14 @@ impl Rendered {
             Rendered::Gpu(r) => &r.images,
         }
     }
+
+    /// (tile, Gaussian) pairs of the tile lists; times 256 pixels, the work of a forward pass.
+    pub fn tile_pairs(&self) -> u64 {
+        match self {
+            Rendered::Cpu(r) => (r.tile_pair_count() / (super::TILE * super::TILE)) as u64,
+            Rendered::Gpu(r) => r.pair_count(),
+        }
+    }
 }
 
 impl Rasteriser {
@@ -83,6 +91,11 @@ impl Rasteriser {
                 Rasteriser::Cpu
             }
         }
+    }
+
+    /// Whether this is the GPU engine.
+    pub fn is_gpu(&self) -> bool {
+        matches!(self, Rasteriser::Gpu(_))
     }
 
     /// "cpu" or "gpu (adapter)".
