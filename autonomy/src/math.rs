@@ -14,5 +14,7 @@ pub type Rotation3 = nalgebra::Rotation3<Real>;
 pub type UnitQuaternion = nalgebra::UnitQuaternion<Real>;
 /// A 3x3 matrix.
 pub type Matrix3 = nalgebra::Matrix3<Real>;
+/// A homogeneous transform as a matrix (poses from files and other programs).
+pub type Matrix4 = nalgebra::Matrix4<Real>;
 /// A translation in 3D.
 pub type Translation3 = nalgebra::Translation3<Real>;

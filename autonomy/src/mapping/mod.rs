@@ -1,0 +1,369 @@
+//! The online mapper (SplaTAM's mapping with RT-GuIDE's uncertainty, DESIGN.md "Gaussian
+//! map"): each mapping step takes a posed RGB-D frame, grows the map where it is missing,
+//! runs N Adam iterations over the frame and the keyframes that overlap it most, prunes, and
+//! sets the uncertainty of every Gaussian the step moved to how far it moved.
+
+mod densify;
+mod keyframes;
+
+pub use densify::DensifyConfig;
+pub use keyframes::Keyframe;
+
+use crate::adam::{Adam, LearningRates};
+use crate::camera::{Intrinsics, PinholeCamera};
+use crate::gaussians::sigmoid;
+use crate::loss::{mapping_loss, Target};
+use crate::map::GaussianMap;
+use crate::math::{Isometry3, Matrix3, Matrix4, Rotation3, Translation3, UnitQuaternion};
+use crate::splat::{Rasteriser, RenderError};
+use std::time::Instant;
+use thiserror::Error;
+
+/// One RGB-D image: RGB in [0, 1] (3 per pixel, rows top to bottom) and planar depth in metres
+/// (0: no measurement).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    /// Interleaved RGB.
+    pub colour: Vec<f32>,
+    /// Planar depth.
+    pub depth: Vec<f32>,
+}
+
+impl Frame {
+    /// A frame from 8-bit RGB.
+    pub fn from_rgb8(rgb: &[u8], depth: Vec<f32>) -> Self {
+        Frame {
+            colour: rgb.iter().map(|c| f32::from(*c) / 255.0).collect(),
+            depth,
+        }
+    }
+}
+
+/// Settings of the mapper.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapperConfig {
+    /// Adam iterations per mapping step (10 in real-time runs, 50 for viewpoint selection).
+    pub iterations: usize,
+    /// Keyframes (besides the current frame) optimised in each step: those overlapping the
+    /// current frame most.
+    pub window: usize,
+    /// A frame becomes a keyframe only if no keyframe already sees this fraction of it, so the
+    /// keyframe set grows with the explored area, not with time.
+    pub keyframe_overlap: f64,
+    /// Hard cap on keyframes (memory); past it no more are kept.
+    pub max_keyframes: usize,
+    /// Densification thresholds.
+    pub densify: DensifyConfig,
+    /// Pruning: Gaussians fainter than this go.
+    pub prune_opacity: f32,
+    /// Pruning: Gaussians wider than this fraction of the scene radius go.
+    pub prune_radius_fraction: f32,
+    /// Adam's learning rates.
+    pub rates: LearningRates,
+}
+
+impl Default for MapperConfig {
+    fn default() -> Self {
+        MapperConfig {
+            iterations: 10,
+            window: 4,
+            keyframe_overlap: 0.8,
+            max_keyframes: 400,
+            densify: DensifyConfig::default(),
+            prune_opacity: 0.005,
+            prune_radius_fraction: 0.1,
+            rates: LearningRates::default(),
+        }
+    }
+}
+
+/// Why a frame was refused; the map is unchanged when one comes back.
+#[derive(Debug, Error, PartialEq)]
+pub enum MapError {
+    /// Image sizes disagree with the intrinsics.
+    #[error("frame has {colour} colour values and {depth} depths; {width}x{height} intrinsics need {} and {}", 3 * width * height, width * height)]
+    Size {
+        /// Colour values given.
+        colour: usize,
+        /// Depths given.
+        depth: usize,
+        /// Width from the intrinsics.
+        width: usize,
+        /// Height from the intrinsics.
+        height: usize,
+    },
+    /// A depth or colour is NaN, infinite, or a depth is negative.
+    #[error("frame refused: {0}")]
+    BadValues(String),
+    /// No pixel has a depth measurement.
+    #[error("frame refused: every depth is 0 (no measurement); nothing to map")]
+    NoDepth,
+    /// The pose is not a rigid transform.
+    #[error("pose refused: {0}")]
+    BadPose(String),
+    /// The renderer failed.
+    #[error(transparent)]
+    Render(#[from] RenderError),
+}
+
+/// What one mapping step did, for logs and benchmarks.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct StepReport {
+    /// Gaussians added.
+    pub added: usize,
+    /// Gaussians pruned.
+    pub pruned: usize,
+    /// Gaussians after the step.
+    pub gaussians: usize,
+    /// Keyframes optimised besides the current frame.
+    pub window: usize,
+    /// Whether the frame became a keyframe.
+    pub keyframe: bool,
+    /// Loss on the first and the last iteration.
+    pub loss: (f32, f32),
+    /// Wall seconds: densify, optimise, prune + uncertainty.
+    pub seconds: [f64; 3],
+}
+
+/// Checks that `m` is a rigid transform (orthonormal rotation with det +1, last row 0 0 0 1)
+/// and returns it as an isometry.
+pub fn pose_from_matrix(m: &Matrix4) -> Result<Isometry3, MapError> {
+    if m.iter().any(|v| !v.is_finite()) {
+        return Err(MapError::BadPose("it contains NaN or infinity".into()));
+    }
+    let last = m.row(3);
+    if (last - nalgebra::RowVector4::new(0.0, 0.0, 0.0, 1.0)).norm() > 1e-9 {
+        return Err(MapError::BadPose(format!(
+            "its last row is {last} instead of 0 0 0 1"
+        )));
+    }
+    let r: Matrix3 = m.fixed_view::<3, 3>(0, 0).into_owned();
+    let orthogonality = (r.transpose() * r - Matrix3::identity()).norm();
+    if orthogonality > 1e-5 || r.determinant() < 0.0 {
+        return Err(MapError::BadPose(format!(
+            "its 3x3 block is not a rotation (|R^T R - I| = {orthogonality:.2e}, det = {:.3})",
+            r.determinant()
+        )));
+    }
+    let rotation = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
+    Ok(Isometry3::from_parts(
+        Translation3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]),
+        rotation,
+    ))
+}
+
+fn validate_frame(frame: &Frame, k: &Intrinsics) -> Result<(), MapError> {
+    let (w, h) = (k.width as usize, k.height as usize);
+    if frame.colour.len() != 3 * w * h || frame.depth.len() != w * h {
+        return Err(MapError::Size {
+            colour: frame.colour.len(),
+            depth: frame.depth.len(),
+            width: w,
+            height: h,
+        });
+    }
+    if let Some(p) = frame.depth.iter().position(|d| !d.is_finite() || *d < 0.0) {
+        return Err(MapError::BadValues(format!(
+            "depth at pixel {p} is {}",
+            frame.depth[p]
+        )));
+    }
+    if let Some(p) = frame.colour.iter().position(|c| !c.is_finite()) {
+        return Err(MapError::BadValues(format!(
+            "colour value {p} is {}",
+            frame.colour[p]
+        )));
+    }
+    if frame.depth.iter().all(|d| *d == 0.0) {
+        return Err(MapError::NoDepth);
+    }
+    Ok(())
+}
+
+/// The online mapper: the map, its keyframes and the engine that renders it.
+#[derive(Debug)]
+pub struct Mapper {
+    config: MapperConfig,
+    map: GaussianMap,
+    keyframes: Vec<Keyframe>,
+    engine: Rasteriser,
+    /// Adam's moments persist across steps (grown on densify, filtered on prune): a Gaussian
+    /// that has settled takes small steps, a new one full steps, which is what makes the
+    /// displacement a measure of uncertainty.
+    adam: Adam,
+    /// SplaTAM's scene radius: the largest measured depth so far / 3.
+    scene_radius: f32,
+    steps: usize,
+}
+
+impl Mapper {
+    /// An empty map.
+    pub fn new(config: MapperConfig, engine: Rasteriser) -> Self {
+        let config_rates = config.rates;
+        Mapper {
+            config,
+            map: GaussianMap::default(),
+            keyframes: Vec::new(),
+            engine,
+            adam: Adam::new(config_rates),
+            scene_radius: 0.0,
+            steps: 0,
+        }
+    }
+
+    /// The map.
+    pub fn map(&self) -> &GaussianMap {
+        &self.map
+    }
+
+    /// The engine in use.
+    pub fn engine(&self) -> &Rasteriser {
+        &self.engine
+    }
+
+    /// Keyframes kept so far.
+    pub fn keyframe_count(&self) -> usize {
+        self.keyframes.len()
+    }
+
+    /// Mapping steps done.
+    pub fn steps(&self) -> usize {
+        self.steps
+    }
+
+    /// One mapping step with `frame` taken at `world_from_camera` (optical frame) with
+    /// `intrinsics`. Refused frames leave the map unchanged.
+    pub fn integrate(
+        &mut self,
+        frame: &Frame,
+        world_from_camera: &Matrix4,
+        intrinsics: &Intrinsics,
+    ) -> Result<StepReport, MapError> {
+        let pose = pose_from_matrix(world_from_camera)?;
+        validate_frame(frame, intrinsics)?;
+        let camera = PinholeCamera {
+            intrinsics: *intrinsics,
+            world_from_camera: pose,
+        };
+        crate::splat::validate_camera(&camera)?;
+        let mut report = StepReport::default();
+        let max_depth = frame.depth.iter().fold(0.0f32, |m, d| m.max(*d));
+        self.scene_radius = self.scene_radius.max(max_depth / 3.0);
+
+        // Grow.
+        let t0 = Instant::now();
+        let rendered = if self.map.is_empty() {
+            None
+        } else {
+            Some(self.engine.render(&self.map.gaussians, &camera)?)
+        };
+        report.added = densify::densify(
+            &mut self.map.gaussians,
+            frame,
+            &camera,
+            rendered.as_ref().map(|r| r.images()),
+            &self.config.densify,
+        );
+        drop(rendered);
+        self.map.uncertainty.resize(self.map.len(), 0.0);
+
+        // Choose the views: the frame, then the keyframes that see most of it.
+        let points = keyframes::sample_points(frame, &camera);
+        let mut ranked: Vec<(f64, usize)> = self
+            .keyframes
+            .iter()
+            .enumerate()
+            .map(|(i, kf)| (keyframes::overlap(&points, kf), i))
+            .filter(|(o, _)| *o > 0.0)
+            .collect();
+        ranked.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let best_overlap = ranked.first().map_or(0.0, |r| r.0);
+        ranked.truncate(self.config.window);
+        report.window = ranked.len();
+
+        // Optimise: the current frame on two iterations of every three, the window's keyframes
+        // in turn on the third. The newest frame carries the new information; the keyframes
+        // keep the rest of the map from drifting toward it.
+        let t1 = Instant::now();
+        let before = self.map.gaussians.means.clone();
+        let mut touched = vec![false; self.map.len()];
+        self.adam.resize(self.map.len());
+        for iteration in 0..self.config.iterations {
+            let (view_frame, view_camera) = if iteration % 3 != 2 || ranked.is_empty() {
+                (frame, &camera)
+            } else {
+                let kf = &self.keyframes[ranked[(iteration / 3) % ranked.len()].1];
+                (&kf.frame, &kf.camera)
+            };
+            let render = self.engine.render(&self.map.gaussians, view_camera)?;
+            let (terms, image_grads) = mapping_loss(
+                render.images(),
+                Target {
+                    colour: &view_frame.colour,
+                    depth: &view_frame.depth,
+                },
+            );
+            if iteration == 0 {
+                report.loss.0 = terms.total();
+            }
+            report.loss.1 = terms.total();
+            let grads = self.engine.backward(&render, &image_grads)?;
+            for &i in &grads.touched {
+                touched[i as usize] = true;
+            }
+            self.adam.step(&mut self.map.gaussians, &grads);
+        }
+
+        // Uncertainty: how far this step moved each Gaussian it touched.
+        let t2 = Instant::now();
+        for (i, moved) in touched.iter().enumerate() {
+            if *moved {
+                let (a, b) = (before[i], self.map.gaussians.means[i]);
+                let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+                self.map.uncertainty[i] = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            }
+        }
+
+        // Prune.
+        let max_radius = self.config.prune_radius_fraction * self.scene_radius;
+        let g = &self.map.gaussians;
+        let keep: Vec<bool> = (0..g.len())
+            .map(|i| {
+                sigmoid(g.logit_opacities[i]) >= self.config.prune_opacity
+                    && g.log_radii[i].exp() <= max_radius
+            })
+            .collect();
+        report.pruned = keep.iter().filter(|k| !**k).count();
+        if report.pruned > 0 {
+            self.map.retain(&keep);
+            self.adam.retain(&keep);
+        }
+
+        // Keep the frame if no keyframe already covers it.
+        if best_overlap < self.config.keyframe_overlap
+            && self.keyframes.len() < self.config.max_keyframes
+        {
+            self.keyframes.push(Keyframe {
+                frame: frame.clone(),
+                camera,
+            });
+            report.keyframe = true;
+        }
+        self.steps += 1;
+        report.gaussians = self.map.len();
+        report.seconds = [
+            (t1 - t0).as_secs_f64(),
+            (t2 - t1).as_secs_f64(),
+            t2.elapsed().as_secs_f64(),
+        ];
+        tracing::debug!(?report, "mapping step");
+        Ok(report)
+    }
+
+    /// Replaces the map (e.g. one read from a PLY); keyframes are dropped.
+    pub fn set_map(&mut self, map: GaussianMap) {
+        self.map = map;
+        self.keyframes.clear();
+        self.adam = Adam::new(self.config.rates);
+    }
+}
