@@ -170,3 +170,125 @@ pub fn bench_render(
     }
     Ok(rows)
 }
+
+/// One row of `bench map`: a mapping step as the map grows.
+#[derive(Debug, Clone)]
+pub struct MapBenchRow {
+    /// Step number (1-based).
+    pub step: usize,
+    /// What the mapper reported.
+    pub report: autonomy::mapping::StepReport,
+    /// Wall seconds of the whole step.
+    pub seconds: f64,
+}
+
+/// Map quality at held-out views after the run.
+#[derive(Debug, Clone)]
+pub struct MapQuality {
+    /// Mean PSNR, dB.
+    pub psnr: f64,
+    /// Mean depth MAE, metres.
+    pub depth_mae: f64,
+    /// Held-out views.
+    pub views: usize,
+}
+
+/// The camera poses of `bench map`: the robot's camera (0.4 m up) spinning in place in each
+/// room of the apartment and driving between them through the doors.
+pub fn apartment_tour(
+    intrinsics: autonomy::camera::Intrinsics,
+) -> Vec<autonomy::camera::PinholeCamera> {
+    use autonomy::synthetic::look_at;
+    let height = 0.4;
+    let mut cameras = Vec::new();
+    let spin = |cameras: &mut Vec<_>, x: f64, y: f64, frames: usize, offset: f64| {
+        for i in 0..frames {
+            let a = offset + std::f64::consts::TAU * i as f64 / frames as f64;
+            cameras.push(look_at(
+                [x, y, height],
+                [x + a.cos(), y + a.sin(), height],
+                intrinsics,
+            ));
+        }
+    };
+    let drive = |cameras: &mut Vec<_>, from: [f64; 2], to: [f64; 2], frames: usize| {
+        let heading = (to[1] - from[1]).atan2(to[0] - from[0]);
+        for i in 1..=frames {
+            let s = i as f64 / frames as f64;
+            let (x, y) = (
+                from[0] + s * (to[0] - from[0]),
+                from[1] + s * (to[1] - from[1]),
+            );
+            cameras.push(look_at(
+                [x, y, height],
+                [x + heading.cos(), y + heading.sin(), height],
+                intrinsics,
+            ));
+        }
+    };
+    spin(&mut cameras, 2.0, 2.5, 10, 0.0);
+    drive(&mut cameras, [2.0, 2.5], [3.0, 3.5], 2);
+    drive(&mut cameras, [3.0, 3.5], [5.5, 3.5], 4);
+    drive(&mut cameras, [5.5, 3.5], [7.0, 2.0], 3);
+    spin(&mut cameras, 7.0, 2.0, 10, 0.3);
+    drive(&mut cameras, [7.0, 2.0], [7.0, 5.5], 5);
+    spin(&mut cameras, 7.0, 5.5, 10, 0.6);
+    drive(&mut cameras, [7.0, 5.5], [8.5, 5.5], 2);
+    cameras
+}
+
+/// Runs the mapper over [`apartment_tour`] in `BoxScene::apartment()` and times every step;
+/// then scores the map at held-out views (the spins' poses turned by half a step).
+pub fn bench_map(
+    engine: autonomy::splat::Rasteriser,
+    width: u32,
+    height: u32,
+    iterations: usize,
+) -> std::result::Result<(Vec<MapBenchRow>, MapQuality), autonomy::mapping::MapError> {
+    use autonomy::camera::Intrinsics;
+    use autonomy::mapping::{Frame, Mapper, MapperConfig};
+    use autonomy::metrics::{depth_mae, psnr};
+    use autonomy::synthetic::{look_at, BoxScene};
+    let scene = BoxScene::apartment();
+    let k = Intrinsics::from_fovy(60f64.to_radians(), width, height);
+    let config = MapperConfig {
+        iterations,
+        ..MapperConfig::default()
+    };
+    let mut mapper = Mapper::new(config, engine);
+    let mut rows = Vec::new();
+    for (i, camera) in apartment_tour(k).iter().enumerate() {
+        let truth = scene.render(camera);
+        let frame = Frame {
+            colour: truth.colour,
+            depth: truth.depth,
+        };
+        let start = Instant::now();
+        let report = mapper.integrate(&frame, &camera.world_from_camera.to_homogeneous(), &k)?;
+        rows.push(MapBenchRow {
+            step: i + 1,
+            report,
+            seconds: start.elapsed().as_secs_f64(),
+        });
+    }
+    let mut scores = Vec::new();
+    for (x, y, offset) in [(2.0, 2.5, 0.0), (7.0, 2.0, 0.3), (7.0, 5.5, 0.6)] {
+        for j in 0..4 {
+            let a = offset + std::f64::consts::TAU * (2.5 * j as f64 + 0.5) / 10.0;
+            let camera = look_at([x, y, 0.4], [x + a.cos(), y + a.sin(), 0.4], k);
+            let truth = scene.render(&camera);
+            let rendered = mapper.engine().render(&mapper.map().gaussians, &camera)?;
+            scores.push((
+                psnr(&rendered.images().colour, &truth.colour),
+                depth_mae(&rendered.images().depth, &truth.depth),
+            ));
+        }
+    }
+    let n = scores.len() as f64;
+    let quality = MapQuality {
+        psnr: scores.iter().map(|s| s.0).sum::<f64>() / n,
+        depth_mae: scores.iter().map(|s| s.1).sum::<f64>() / n,
+        views: scores.len(),
+    };
+    Ok((rows, quality))
+}

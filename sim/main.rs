@@ -42,7 +42,7 @@ enum Command {
         /// Gaussian counts (render).
         #[arg(long, value_delimiter = ',', default_value = "10000,100000,1000000")]
         gaussians: Vec<usize>,
-        /// Splat engines to time (render): cpu, gpu (any adapter, software included) or auto
+        /// Splat engines to time (render, map): cpu, gpu (any adapter, software included) or auto
         /// (a hardware GPU if there is one); an engine that resolves to one already timed is
         /// skipped.
         #[arg(long, value_delimiter = ',', default_value = "cpu,auto")]
@@ -56,6 +56,8 @@ enum BenchTarget {
     Sensor,
     /// One mapping iteration (forward + loss + backward + Adam) of each splat engine.
     Render,
+    /// Mapping steps (densify, iterations, prune) as the map of a 70 m2 apartment grows.
+    Map,
 }
 
 #[derive(clap::Args)]
@@ -160,6 +162,20 @@ fn run(command: Command) -> Result<()> {
                 }
                 Ok(())
             }
+            BenchTarget::Map => {
+                for choice in &engine {
+                    let choice: EngineChoice = choice.parse().map_err(anyhow::Error::msg)?;
+                    let rasteriser = Rasteriser::select(choice);
+                    let name = rasteriser.describe();
+                    if choice == EngineChoice::Auto && !rasteriser.is_gpu() {
+                        println!("(auto resolved to {name}, already timed)");
+                        continue;
+                    }
+                    let (rows, quality) = splatloop::bench::bench_map(rasteriser, 320, 240, 10)?;
+                    print_map_bench(&name, &rows, &quality);
+                }
+                Ok(())
+            }
             BenchTarget::Sensor => {
                 let (device, rows) = splatloop::bench::bench_sensor(&world, frames.max(1))?;
                 println!("device: {device}");
@@ -210,6 +226,48 @@ fn print_render_bench(engine: &str, rows: &[splatloop::bench::RenderBenchRow]) {
             r.pairs as f64 / r.iteration() / 1e6
         );
     }
+}
+
+fn print_map_bench(
+    engine: &str,
+    rows: &[splatloop::bench::MapBenchRow],
+    quality: &splatloop::bench::MapQuality,
+) {
+    println!("engine: {engine}; 320x240, 10 iterations per step, apartment tour");
+    println!("| step | Gaussians | added | pruned | keyframe window | densify ms | optimise ms | prune ms | step ms |");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in rows {
+        let s = r.report.seconds.map(|v| v * 1e3);
+        println!(
+            "| {} | {} | {} | {} | {} | {:.0} | {:.0} | {:.0} | {:.0} |",
+            r.step,
+            r.report.gaussians,
+            r.report.added,
+            r.report.pruned,
+            r.report.window,
+            s[0],
+            s[1],
+            s[2],
+            r.seconds * 1e3
+        );
+    }
+    let mut times: Vec<f64> = rows.iter().map(|r| r.seconds).collect();
+    times.sort_by(f64::total_cmp);
+    if let (Some(max), false) = (times.last(), times.is_empty()) {
+        println!(
+            "steps: {}, median {:.0} ms, max {:.0} ms; final map {} Gaussians",
+            times.len(),
+            times[times.len() / 2] * 1e3,
+            max * 1e3,
+            rows.last().map_or(0, |r| r.report.gaussians)
+        );
+    }
+    println!(
+        "held-out views: {}, mean PSNR {:.2} dB, mean depth MAE {:.2} cm",
+        quality.views,
+        quality.psnr,
+        quality.depth_mae * 100.0
+    );
 }
 
 fn run_record(args: RecordArgs) -> Result<()> {

@@ -55,6 +55,7 @@ fn twenty_frames_around_the_room_map_a_held_out_view() {
     let k = Intrinsics::from_fovy(60f64.to_radians(), 320, 240);
     let mut config = MapperConfig::default();
     config.densify.stride = 1;
+    config.densify.radius_scale = 1.0;
     let mut mapper = Mapper::new(config, Rasteriser::Cpu);
     let on_circle = |i: f64| {
         let a = std::f64::consts::TAU * i / 20.0;

@@ -16,10 +16,12 @@ pub struct DensifyConfig {
     /// Pixels whose depth error exceeds this many median errors (with the render behind the
     /// measurement) are unexplained.
     pub depth_error_factor: f32,
-    /// Only every `stride`-th pixel each way is considered; the focal length of that grid is
-    /// f / stride, so a new Gaussian's radius is stride x depth / f and the grid stays
-    /// covered. 1 is SplaTAM's full resolution.
+    /// Only every `stride`-th pixel each way is considered (1 is SplaTAM's full resolution).
     pub stride: usize,
+    /// A new Gaussian's radius is this x depth / f. SplaTAM's rule is 1 at stride 1; at
+    /// stride 2 a scale of 1 leaves holes between the Gaussians (measured: depth MAE 30 cm in
+    /// `bench map`), so the default matches the stride: the grid's own focal length f / 2.
+    pub radius_scale: f32,
 }
 
 impl Default for DensifyConfig {
@@ -28,6 +30,7 @@ impl Default for DensifyConfig {
             silhouette: 0.5,
             depth_error_factor: 50.0,
             stride: 2,
+            radius_scale: 2.0,
         }
     }
 }
@@ -60,7 +63,7 @@ pub fn densify(
     let k = camera.intrinsics;
     let (w, h) = (k.width as usize, k.height as usize);
     let stride = config.stride.max(1);
-    let focal = 0.5 * (k.fx + k.fy) / stride as f64;
+    let focal = 0.5 * (k.fx + k.fy) / f64::from(config.radius_scale);
     let threshold =
         rendered.map(|r| config.depth_error_factor * median_depth_error(&r.depth, &frame.depth));
     let before = gaussians.len();
