@@ -13,9 +13,15 @@
 // Per tile of the whole image: first pair, one past the last.
 @group(0) @binding(7) var<storage, read_write> ranges: array<u32>;
 
-// Rows of the rectangle inside the band, as (first, one past last); empty when first >= last.
-fn band_rows(r: vec4<u32>) -> vec2<u32> {
-    return vec2<u32>(max(r.z, params.band_start), min(r.w + 1u, params.band_end));
+// Splat i's tiles inside the band as half-open (first column, end column, first row, end
+// row); all zero when it has none.
+fn band_tiles(i: u32) -> vec4<u32> {
+    let r = rects[i];
+    let rows = vec2<u32>(max(r.z, params.band_start), min(r.w + 1u, params.band_end));
+    if (r.x > r.y || rows.x >= rows.y) {
+        return vec4<u32>(0u);
+    }
+    return vec4<u32>(r.x, r.y + 1u, rows.x, rows.y);
 }
 
 @compute @workgroup_size(256)
@@ -24,13 +30,8 @@ fn count_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
     if (i >= params.count) {
         return;
     }
-    let r = rects[i];
-    let rows = band_rows(r);
-    if (r.x > r.y || rows.x >= rows.y) {
-        offsets[i] = 0u;
-    } else {
-        offsets[i] = (r.y - r.x + 1u) * (rows.y - rows.x);
-    }
+    let t = band_tiles(i);
+    offsets[i] = (t.y - t.x) * (t.w - t.z);
 }
 
 @compute @workgroup_size(256)
@@ -39,16 +40,12 @@ fn emit_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     if (i >= params.count) {
         return;
     }
-    let r = rects[i];
-    let rows = band_rows(r);
-    if (r.x > r.y || rows.x >= rows.y) {
-        return;
-    }
+    let t = band_tiles(i);
     // Positive floats order like their bits; ties keep splat order (the sort is stable).
     let depth = bitcast<u32>(splats[3u * i + 1u].x);
     var o = offsets[i];
-    for (var ty = rows.x; ty < rows.y; ty++) {
-        for (var tx = r.x; tx <= r.y; tx++) {
+    for (var ty = t.z; ty < t.w; ty++) {
+        for (var tx = t.x; tx < t.y; tx++) {
             pair_tiles[o] = ty * params.tiles_x + tx;
             pair_depths[o] = depth;
             pair_splats[o] = i;

@@ -21,11 +21,11 @@ fn forward(
     @builtin(local_invocation_index) lid: u32,
     @builtin(workgroup_id) wid: vec3<u32>,
 ) {
-    let tile_y = wid.y + params.band_start;
-    let tile = tile_y * params.tiles_x + wid.x;
-    let x = wid.x * TILE + local.x;
-    let y = tile_y * TILE + local.y;
-    let inside = x < params.width && y < params.height;
+    let pixel = tile_pixel(local, wid);
+    let tile = pixel.x;
+    let x = pixel.y;
+    let y = pixel.z;
+    let inside = pixel.w == 1u;
     let start = ranges[2u * tile];
     let end = max(ranges[2u * tile + 1u], start);
     if (lid == 0u) {

@@ -188,14 +188,14 @@ impl Kernels {
             forward: Module::new(
                 gpu,
                 "forward",
-                include_str!("forward.wgsl"),
+                concat!(include_str!("tile.wgsl"), include_str!("forward.wgsl")),
                 &[Uniform, Read, Read, Read, Write],
                 &["forward"],
             ),
             backward: Module::new(
                 gpu,
                 "backward",
-                include_str!("backward.wgsl"),
+                concat!(include_str!("tile.wgsl"), include_str!("backward.wgsl")),
                 &[Uniform, Read, Read, Read, Read, Read, Write],
                 &["backward"],
             ),
