@@ -11,6 +11,7 @@ pub mod map;
 pub mod mapping;
 pub mod math;
 pub mod metrics;
+pub mod planner;
 pub mod ply;
 pub mod splat;
 pub mod ssim;

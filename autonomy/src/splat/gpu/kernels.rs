@@ -11,7 +11,7 @@ const MAX_GROUPS_X: u32 = 65535;
 
 /// How a kernel sees one binding.
 #[derive(Clone, Copy)]
-enum Access {
+pub(crate) enum Access {
     Uniform,
     Read,
     Write,
@@ -24,7 +24,7 @@ pub struct Module {
 }
 
 impl Module {
-    fn new(
+    pub(crate) fn new(
         gpu: &GpuDevice,
         name: &str,
         source: &str,

@@ -8,7 +8,7 @@
 //! band keeps its sorted lists for the backward pass.
 
 mod device;
-mod kernels;
+pub(crate) mod kernels;
 
 pub use device::{AdapterPolicy, GpuDevice, GpuError};
 

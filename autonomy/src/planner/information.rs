@@ -1,0 +1,257 @@
+//! Information of a viewpoint (DESIGN.md): xi = #high-uncertainty Gaussians in view -
+//! lambda_xi #low-uncertainty ones, "in view" meaning inside the camera frustum and within
+//! the sensor range (planar depth), no occlusion test. A dense 3-D grid of per-cell counts
+//! answers it exactly: cells wholly inside the view add their counts, cells on the boundary
+//! test their members one by one.
+
+use super::unicycle::State;
+use crate::camera::Intrinsics;
+use crate::map::UncertaintyClass;
+
+/// Where the camera sits on the robot.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CameraMount {
+    /// Intrinsics of the sensor.
+    pub intrinsics: Intrinsics,
+    /// Forward offset from the robot's centre, metres.
+    pub forward: f64,
+    /// Height above the floor, metres.
+    pub height: f64,
+    /// Sensor range (planar depth), metres.
+    pub range: f64,
+}
+
+impl Default for CameraMount {
+    fn default() -> Self {
+        // models/unicycle.xml: camera 0.2 m ahead, 0.4 m up, fovy 60, 320x240; 5 m range.
+        CameraMount {
+            intrinsics: Intrinsics::from_fovy(60f64.to_radians(), 320, 240),
+            forward: 0.2,
+            height: 0.4,
+            range: 5.0,
+        }
+    }
+}
+
+/// A camera pose reduced to what the frustum test needs.
+#[derive(Debug, Clone, Copy)]
+struct View {
+    centre: [f32; 3],
+    forward: [f32; 2],
+    range: f32,
+    // |x / z| and |y / z| limits of the image.
+    half_x: f32,
+    half_y_up: f32,
+    half_y_down: f32,
+}
+
+impl View {
+    fn new(mount: &CameraMount, s: &State) -> Self {
+        let k = &mount.intrinsics;
+        let (c, sn) = (s.theta.cos(), s.theta.sin());
+        View {
+            centre: [
+                (s.x + mount.forward * c) as f32,
+                (s.y + mount.forward * sn) as f32,
+                mount.height as f32,
+            ],
+            forward: [c as f32, sn as f32],
+            range: mount.range as f32,
+            half_x: ((k.cx + 0.5) / k.fx) as f32,
+            // Image rows grow downward: the top edge is cy + 0.5 pixels above the centre.
+            half_y_up: ((k.cy + 0.5) / k.fy) as f32,
+            half_y_down: ((f64::from(k.height) - 0.5 - k.cy) / k.fy) as f32,
+        }
+    }
+
+    #[inline]
+    fn sees(&self, p: [f32; 3]) -> bool {
+        let d = [
+            p[0] - self.centre[0],
+            p[1] - self.centre[1],
+            p[2] - self.centre[2],
+        ];
+        let z = d[0] * self.forward[0] + d[1] * self.forward[1];
+        if z <= 0.0 || z > self.range {
+            return false;
+        }
+        // Optical x points right: (sin, -cos); optical y points down: -world z.
+        let x = d[0] * self.forward[1] - d[1] * self.forward[0];
+        let up = d[2];
+        x.abs() <= self.half_x * z && up <= self.half_y_up * z && -up <= self.half_y_down * z
+    }
+}
+
+/// Per-cell counts of high and low Gaussians, and their members for boundary cells.
+#[derive(Debug, Clone)]
+pub struct ViewCounter {
+    origin: [f32; 3],
+    cell: f32,
+    dims: [usize; 3],
+    high: Vec<u32>,
+    low: Vec<u32>,
+    starts: Vec<u32>,
+    members: Vec<([f32; 3], bool)>,
+    mount: CameraMount,
+    /// lambda_xi.
+    pub low_weight: f64,
+}
+
+impl ViewCounter {
+    /// Files every high and low Gaussian (others do not count) in cells of side `cell`.
+    pub fn new(
+        means: &[[f32; 3]],
+        classes: &[UncertaintyClass],
+        mount: CameraMount,
+        cell: f32,
+    ) -> Self {
+        let counted: Vec<([f32; 3], bool)> = means
+            .iter()
+            .zip(classes)
+            .filter_map(|(m, c)| match c {
+                UncertaintyClass::High => Some((*m, true)),
+                UncertaintyClass::Low => Some((*m, false)),
+                _ => None,
+            })
+            .collect();
+        let mut lo = [f32::MAX; 3];
+        let mut hi = [f32::MIN; 3];
+        for (m, _) in &counted {
+            for a in 0..3 {
+                lo[a] = lo[a].min(m[a]);
+                hi[a] = hi[a].max(m[a]);
+            }
+        }
+        if counted.is_empty() {
+            lo = [0.0; 3];
+            hi = [0.0; 3];
+        }
+        let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / cell).floor() as usize + 1);
+        let n = dims[0] * dims[1] * dims[2];
+        let index = |m: &[f32; 3]| {
+            let c = [0, 1, 2].map(|a| (((m[a] - lo[a]) / cell) as usize).min(dims[a] - 1));
+            (c[2] * dims[1] + c[1]) * dims[0] + c[0]
+        };
+        let (mut high, mut low, mut counts) = (vec![0u32; n], vec![0u32; n], vec![0u32; n + 1]);
+        for (m, is_high) in &counted {
+            let i = index(m);
+            if *is_high {
+                high[i] += 1;
+            } else {
+                low[i] += 1;
+            }
+            counts[i + 1] += 1;
+        }
+        for i in 0..n {
+            counts[i + 1] += counts[i];
+        }
+        let mut cursor = counts.clone();
+        let mut members = vec![([0.0f32; 3], false); counted.len()];
+        for (m, h) in &counted {
+            let i = index(m);
+            members[cursor[i] as usize] = (*m, *h);
+            cursor[i] += 1;
+        }
+        ViewCounter {
+            origin: lo,
+            cell,
+            dims,
+            high,
+            low,
+            starts: counts,
+            members,
+            mount,
+            low_weight: 1.0,
+        }
+    }
+
+    /// (#high, #low) in view from robot state `s`.
+    pub fn count(&self, s: &State) -> (u32, u32) {
+        if self.members.is_empty() {
+            return (0, 0);
+        }
+        let view = View::new(&self.mount, s);
+        // Cells the view can reach: the box of the sphere around the view's far corners (planar
+        // range, so the corners lie further than the range itself).
+        let spread = view.half_x.powi(2) + view.half_y_up.max(view.half_y_down).powi(2);
+        let r = view.range * (1.0 + spread).sqrt();
+        let range_cells = |a: usize| {
+            let lo = ((view.centre[a] - r - self.origin[a]) / self.cell)
+                .floor()
+                .max(0.0) as usize;
+            let hi = ((view.centre[a] + r - self.origin[a]) / self.cell).floor();
+            if hi < 0.0 {
+                return (1, 0);
+            }
+            (lo, (hi as usize).min(self.dims[a] - 1))
+        };
+        let (x0, x1) = range_cells(0);
+        let (y0, y1) = range_cells(1);
+        let (z0, z1) = range_cells(2);
+        let (mut high, mut low) = (0u32, 0u32);
+        for cz in z0..=z1.min(self.dims[2] - 1) {
+            for cy in y0..=y1.min(self.dims[1] - 1) {
+                for cx in x0..=x1.min(self.dims[0] - 1) {
+                    if x0 > x1 || y0 > y1 || z0 > z1 {
+                        continue;
+                    }
+                    let i = (cz * self.dims[1] + cy) * self.dims[0] + cx;
+                    if self.high[i] + self.low[i] == 0 {
+                        continue;
+                    }
+                    let corner = [cx, cy, cz].map(|c| c as f32).map(|c| c * self.cell);
+                    let base = [0, 1, 2].map(|a| self.origin[a] + corner[a]);
+                    let mut inside = 0;
+                    for k in 0..8 {
+                        let p = [
+                            base[0] + if k & 1 != 0 { self.cell } else { 0.0 },
+                            base[1] + if k & 2 != 0 { self.cell } else { 0.0 },
+                            base[2] + if k & 4 != 0 { self.cell } else { 0.0 },
+                        ];
+                        inside += usize::from(view.sees(p));
+                    }
+                    if inside == 8 {
+                        // The view region (frustum cut by the range plane) is convex.
+                        high += self.high[i];
+                        low += self.low[i];
+                    } else {
+                        for (m, h) in
+                            &self.members[self.starts[i] as usize..self.starts[i + 1] as usize]
+                        {
+                            if view.sees(*m) {
+                                if *h {
+                                    high += 1;
+                                } else {
+                                    low += 1;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        (high, low)
+    }
+
+    /// xi of state `s`.
+    pub fn information(&self, s: &State) -> f64 {
+        let (h, l) = self.count(s);
+        f64::from(h) - self.low_weight * f64::from(l)
+    }
+
+    /// (#high, #low) in view by checking every counted Gaussian: the reference.
+    pub fn count_brute_force(&self, s: &State) -> (u32, u32) {
+        let view = View::new(&self.mount, s);
+        self.members.iter().fold((0, 0), |(h, l), (m, is_high)| {
+            if view.sees(*m) {
+                if *is_high {
+                    (h + 1, l)
+                } else {
+                    (h, l + 1)
+                }
+            } else {
+                (h, l)
+            }
+        })
+    }
+}

@@ -1,0 +1,297 @@
+//! The RT-GuIDE planner (DESIGN.md "RT-GuIDE planner"; `papers/rt-guide.txt` IV-B): regions
+//! of the map with utility Omega, a topological graph that picks a guidance path with the best
+//! Omega / e^d, a motion-primitive A* toward the path's local goal with every sample point
+//! collision-checked against every Gaussian, and the candidate that sees the most
+//! high-uncertainty and the fewest low-uncertainty Gaussians. Failures come back as values.
+
+pub mod collision;
+pub mod gpu_collision;
+pub mod graph;
+pub mod information;
+pub mod search;
+pub mod unicycle;
+
+use crate::map::{ClassifyOptions, GaussianMap};
+use collision::{CollisionGrid, CollisionModel, Obstacles};
+use gpu_collision::GpuCollision;
+use graph::{local_goal, regions, TopologicalGraph};
+use information::{CameraMount, ViewCounter};
+use search::{search, SearchConfig};
+use std::time::Instant;
+use unicycle::{Control, State};
+
+/// Settings of the planner (the paper's values by default).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlannerConfig {
+    /// Side of a region, metres.
+    pub region_size: f64,
+    /// A new odometry node is added when none is nearer than this, metres.
+    pub odometry_spacing: f64,
+    /// Viewpoints sampled around each region.
+    pub viewpoints_per_region: usize,
+    /// The A*.
+    pub search: SearchConfig,
+    /// The robot for collision checks.
+    pub collision: CollisionModel,
+    /// The camera for information.
+    pub mount: CameraMount,
+    /// Which Gaussians planning leaves out (the ground plane).
+    pub classify: ClassifyOptions,
+    /// The grid files Gaussians up to this radius in cells; larger ones are checked always.
+    pub grid_radius_cap: f32,
+    /// Cell side of the information grid, metres.
+    pub information_cell: f32,
+}
+
+impl Default for PlannerConfig {
+    fn default() -> Self {
+        PlannerConfig {
+            region_size: 2.5,
+            odometry_spacing: 1.0,
+            viewpoints_per_region: 8,
+            search: SearchConfig::default(),
+            collision: CollisionModel::default(),
+            mount: CameraMount::default(),
+            classify: ClassifyOptions::default(),
+            grid_radius_cap: 0.05,
+            information_cell: 0.5,
+        }
+    }
+}
+
+/// Why no plan came back, and what the host can do about it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PlanFailure {
+    /// Nothing mapped yet (or only floor).
+    #[error("the map has no Gaussians above the ground plane yet; turn in place to look around")]
+    EmptyMap,
+    /// The robot's own position is in collision with the map.
+    #[error("the robot's position collides with the map (nearest obstacle within r_robot + 3 r); back off and replan")]
+    StartInCollision,
+    /// Every primitive from the start collides.
+    #[error("every motion primitive from here collides; turn in place to look around")]
+    NoCollisionFreeCandidate,
+    /// No viewpoint is reachable in the topological graph.
+    #[error(
+        "no viewpoint is reachable through the topological graph; turn in place to look around"
+    )]
+    GoalUnreachable,
+}
+
+/// What the host should do after a failure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Recovery {
+    /// Spin on the spot to see more.
+    TurnInPlace,
+    /// Reverse a little, then replan.
+    BackOff,
+}
+
+impl PlanFailure {
+    /// The recovery the planner suggests.
+    pub fn recovery(&self) -> Recovery {
+        match self {
+            PlanFailure::StartInCollision => Recovery::BackOff,
+            _ => Recovery::TurnInPlace,
+        }
+    }
+}
+
+/// How the planner checks collisions.
+#[derive(Debug)]
+pub enum CollisionEngine {
+    /// Every point against every Gaussian (the reference; slow).
+    BruteForce,
+    /// The incremental hash grid.
+    Grid,
+    /// Every point against every Gaussian on a GPU.
+    Gpu(Box<GpuCollision>),
+}
+
+/// A plan: the controls to apply, one per second.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// (v, w) per segment.
+    pub controls: Vec<Control>,
+    /// Start state and the end state of each segment.
+    pub states: Vec<State>,
+    /// xi summed over the segment end states.
+    pub information: f64,
+    /// The guidance path (robot, then graph nodes), metres.
+    pub guidance: Vec<[f64; 2]>,
+    /// The local goal the search aimed at.
+    pub local_goal: [f64; 2],
+    /// Candidates scored.
+    pub candidates: usize,
+    /// Seconds: sync + regions + graph, search, information.
+    pub seconds: [f64; 3],
+}
+
+/// The planner and the state it keeps between plans (graph, collision grid).
+#[derive(Debug)]
+pub struct RtGuidePlanner {
+    config: PlannerConfig,
+    graph: TopologicalGraph,
+    grid: CollisionGrid,
+    engine: CollisionEngine,
+}
+
+fn point(model: &CollisionModel, s: &State) -> [f32; 3] {
+    [s.x as f32, s.y as f32, model.centre_height]
+}
+
+impl RtGuidePlanner {
+    /// A planner with an empty graph.
+    pub fn new(config: PlannerConfig, engine: CollisionEngine) -> Self {
+        let grid = CollisionGrid::new(config.collision, config.grid_radius_cap);
+        RtGuidePlanner {
+            config,
+            graph: TopologicalGraph::default(),
+            grid,
+            engine,
+        }
+    }
+
+    /// The topological graph.
+    pub fn graph(&self) -> &TopologicalGraph {
+        &self.graph
+    }
+
+    /// Plans from `robot` over `map`.
+    pub fn plan(&mut self, map: &GaussianMap, robot: State) -> Result<Plan, PlanFailure> {
+        let t0 = Instant::now();
+        let cfg = &self.config;
+        let obstacles = Obstacles::from_gaussians(&map.gaussians, cfg.classify.ground_below);
+        if obstacles.is_empty() {
+            return Err(PlanFailure::EmptyMap);
+        }
+        match &mut self.engine {
+            CollisionEngine::Grid => {
+                self.grid.sync(&obstacles);
+            }
+            CollisionEngine::Gpu(gpu) => {
+                if let Err(e) = gpu.upload(&obstacles) {
+                    tracing::warn!("GPU collision upload failed ({e}); using the grid");
+                    self.engine = CollisionEngine::Grid;
+                    self.grid.sync(&obstacles);
+                }
+            }
+            CollisionEngine::BruteForce => {}
+        }
+        let model = cfg.collision;
+        let start_point = point(&model, &robot);
+        if self.collisions(&obstacles, &[start_point])[0] {
+            return Err(PlanFailure::StartInCollision);
+        }
+        let source = self.graph.visit([robot.x, robot.y], cfg.odometry_spacing);
+        self.graph.clear_viewpoints();
+        let cfg = self.config.clone();
+        let k = &cfg.mount.intrinsics;
+        let half_fov = (k.cx / k.fx).atan().min((k.cy / k.fy).atan());
+        for region in regions(map, &cfg.classify, cfg.region_size) {
+            // The shortest distance at which the region's bounding sphere fits the view.
+            let reach = cfg.region_size * 3f64.sqrt() / 2.0 / half_fov.sin();
+            let mut candidates = Vec::new();
+            for j in 0..cfg.viewpoints_per_region {
+                let a = std::f64::consts::TAU * j as f64 / cfg.viewpoints_per_region as f64;
+                let p = [
+                    region.centre[0] + reach * a.cos(),
+                    region.centre[1] + reach * a.sin(),
+                ];
+                candidates.push((p, a + std::f64::consts::PI));
+            }
+            let points: Vec<[f32; 3]> = candidates
+                .iter()
+                .map(|(p, _)| [p[0] as f32, p[1] as f32, model.centre_height])
+                .collect();
+            let hits = self.collisions(&obstacles, &points);
+            for ((p, heading), hit) in candidates.into_iter().zip(hits) {
+                if !hit {
+                    self.graph.add_viewpoint(p, region.omega, heading);
+                }
+            }
+        }
+        let (_, path, _) = self
+            .graph
+            .best_viewpoint(source)
+            .ok_or(PlanFailure::GoalUnreachable)?;
+        let mut guidance = vec![[robot.x, robot.y]];
+        guidance.extend(path.iter().map(|i| self.graph.nodes[*i].position));
+        let goal = local_goal(&guidance, cfg.search.horizon).unwrap_or([robot.x, robot.y]);
+
+        let t1 = Instant::now();
+        let trajectories = {
+            let mut free = |segments: &[Vec<State>]| -> Vec<bool> {
+                let mut points = Vec::new();
+                let mut owner = Vec::new();
+                for (k, seg) in segments.iter().enumerate() {
+                    for s in seg {
+                        points.push(point(&model, s));
+                        owner.push(k);
+                    }
+                }
+                let hits = self.collisions(&obstacles, &points);
+                let mut ok = vec![true; segments.len()];
+                for (hit, k) in hits.into_iter().zip(owner) {
+                    if hit {
+                        ok[k] = false;
+                    }
+                }
+                ok
+            };
+            search(&cfg.search, robot, goal, &mut free)
+        };
+        if trajectories.is_empty() {
+            return Err(PlanFailure::NoCollisionFreeCandidate);
+        }
+
+        let t2 = Instant::now();
+        let classes = map.classify(&cfg.classify);
+        let counter = ViewCounter::new(
+            &map.gaussians.means,
+            &classes,
+            cfg.mount,
+            cfg.information_cell,
+        );
+        let scored: Vec<(f64, &search::Trajectory)> = trajectories
+            .iter()
+            .map(|t| {
+                let xi = t.states[1..].iter().map(|s| counter.information(s)).sum();
+                (xi, t)
+            })
+            .collect();
+        let (information, best) = scored
+            .iter()
+            .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cost.total_cmp(&a.1.cost)))
+            .map(|(xi, t)| (*xi, (*t).clone()))
+            .ok_or(PlanFailure::NoCollisionFreeCandidate)?;
+        Ok(Plan {
+            controls: best.controls,
+            states: best.states,
+            information,
+            guidance,
+            local_goal: goal,
+            candidates: scored.len(),
+            seconds: [
+                (t1 - t0).as_secs_f64(),
+                (t2 - t1).as_secs_f64(),
+                t2.elapsed().as_secs_f64(),
+            ],
+        })
+    }
+
+    fn collisions(&self, obstacles: &Obstacles, points: &[[f32; 3]]) -> Vec<bool> {
+        match &self.engine {
+            CollisionEngine::BruteForce => {
+                collision::brute_force(&self.config.collision, obstacles, points)
+            }
+            CollisionEngine::Grid => self.grid.check(points),
+            CollisionEngine::Gpu(gpu) => gpu
+                .check(&self.config.collision, obstacles, points)
+                .unwrap_or_else(|e| {
+                    tracing::warn!("GPU collision check failed ({e}); using brute force");
+                    collision::brute_force(&self.config.collision, obstacles, points)
+                }),
+        }
+    }
+}
