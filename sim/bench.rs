@@ -292,3 +292,161 @@ pub fn bench_map(
     };
     Ok((rows, quality))
 }
+
+/// One row of `bench plan`.
+#[derive(Debug, Clone)]
+pub struct PlanBenchRow {
+    /// Gaussians of clutter.
+    pub gaussians: usize,
+    /// Collision engine.
+    pub engine: String,
+    /// Seconds of the first plan (the grid's first filing included).
+    pub first: f64,
+    /// Median seconds of a plan after a small map change (the grid's upkeep included).
+    pub plan: f64,
+    /// Stages of the last plan: sync + regions + graph, search, information.
+    pub stages: [f64; 3],
+    /// Trajectory segments of the last plan.
+    pub segments: usize,
+}
+
+/// `n` Gaussians of clutter on the surfaces of boxes scattered over a 40 x 40 x 3 m lot,
+/// leaving a clear 6 m square around the centre where the robot starts; uncertainty random.
+pub fn clutter_lot(n: usize, seed: u64) -> autonomy::map::GaussianMap {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut g = autonomy::gaussians::Gaussians::default();
+    let boxes: Vec<([f32; 3], [f32; 3])> = (0..400)
+        .filter_map(|_| {
+            let c = [rng.gen_range(-19.0..19.0f32), rng.gen_range(-19.0..19.0f32)];
+            if c[0].abs() < 3.0 && c[1].abs() < 3.0 {
+                return None;
+            }
+            let h = [
+                rng.gen_range(0.2..1.0f32),
+                rng.gen_range(0.2..1.0f32),
+                rng.gen_range(0.3..3.0f32),
+            ];
+            Some(([c[0], c[1], 0.0], h))
+        })
+        .collect();
+    let mut uncertainty = Vec::with_capacity(n);
+    for i in 0..n {
+        let (c, h) = boxes[i % boxes.len()];
+        // A point on one of the box's four sides or its top.
+        let (a, b) = (rng.gen_range(-1.0..1.0f32), rng.gen_range(0.0..1.0f32));
+        let p = match rng.gen_range(0..5) {
+            0 => [c[0] + h[0], c[1] + a * h[1], b * h[2]],
+            1 => [c[0] - h[0], c[1] + a * h[1], b * h[2]],
+            2 => [c[0] + a * h[0], c[1] + h[1], b * h[2]],
+            3 => [c[0] + a * h[0], c[1] - h[1], b * h[2]],
+            _ => [c[0] + a * h[0], c[1] + (2.0 * b - 1.0) * h[1], h[2]],
+        };
+        g.push(p, rng.gen_range(0.01..0.04), 0.8, [0.5; 3]);
+        uncertainty.push(rng.gen_range(0.0..1e-3f32));
+    }
+    autonomy::map::GaussianMap {
+        gaussians: g,
+        uncertainty,
+    }
+}
+
+/// Times full plans over [`clutter_lot`] maps with each collision engine.
+pub fn bench_plan(counts: &[usize], brute_force_limit: usize, gpu: bool) -> Vec<PlanBenchRow> {
+    use autonomy::planner::unicycle::State;
+    use autonomy::planner::{CollisionEngine, PlannerConfig, RtGuidePlanner};
+    let mut rows = Vec::new();
+    for &n in counts {
+        let mut map = clutter_lot(n, 7);
+        let mut engines: Vec<(String, CollisionEngine)> =
+            vec![("grid".into(), CollisionEngine::Grid)];
+        if n <= brute_force_limit {
+            engines.push(("brute force".into(), CollisionEngine::BruteForce));
+        }
+        if gpu {
+            match autonomy::planner::gpu_collision::GpuCollision::new(
+                autonomy::splat::gpu::AdapterPolicy::HardwareOnly,
+            ) {
+                Ok(g) => engines.push((
+                    format!("wgpu: {}", g.describe()),
+                    CollisionEngine::Gpu(Box::new(g)),
+                )),
+                Err(e) => tracing::info!("no wgpu row: {e}"),
+            }
+        }
+        for (name, engine) in engines {
+            let mut planner = RtGuidePlanner::new(PlannerConfig::default(), engine);
+            let robot = State {
+                x: 0.0,
+                y: 0.0,
+                theta: 0.3,
+            };
+            let start = Instant::now();
+            let first = planner.plan(&map, robot);
+            let first_seconds = start.elapsed().as_secs_f64();
+            let mut times = Vec::new();
+            let mut last = first;
+            for k in 0..3 {
+                // A mapping step's worth of change: 1% of the Gaussians move a little.
+                for i in (k..map.len()).step_by(100) {
+                    map.gaussians.means[i][0] += 0.002;
+                }
+                let start = Instant::now();
+                last = planner.plan(&map, robot);
+                times.push(start.elapsed().as_secs_f64());
+            }
+            times.sort_by(f64::total_cmp);
+            let (stages, segments) = match &last {
+                Ok(p) => (p.seconds, p.controls.len()),
+                Err(e) => {
+                    tracing::warn!("plan failed: {e}");
+                    ([0.0; 3], 0)
+                }
+            };
+            rows.push(PlanBenchRow {
+                gaussians: n,
+                engine: name,
+                first: first_seconds,
+                plan: times[times.len() / 2],
+                stages,
+                segments,
+            });
+        }
+    }
+    rows
+}
+
+/// Seconds to build the information grid over `n` Gaussians and to score `viewpoints`
+/// viewpoints with it, and with brute force for the first 20 (seconds per viewpoint).
+pub fn bench_viewpoints(n: usize, viewpoints: usize) -> (f64, f64, f64) {
+    use autonomy::map::ClassifyOptions;
+    use autonomy::planner::information::{CameraMount, ViewCounter};
+    use autonomy::planner::unicycle::State;
+    let map = clutter_lot(n, 8);
+    let start = Instant::now();
+    let classes = map.classify(&ClassifyOptions::default());
+    let counter = ViewCounter::new(&map.gaussians.means, &classes, CameraMount::default(), 0.5);
+    let build = start.elapsed().as_secs_f64();
+    let states: Vec<State> = (0..viewpoints)
+        .map(|i| {
+            let a = i as f64 * 0.618;
+            State {
+                x: 15.0 * (a * 1.3).sin(),
+                y: 15.0 * (a * 0.7).cos(),
+                theta: a,
+            }
+        })
+        .collect();
+    let start = Instant::now();
+    let total: f64 = states.iter().map(|s| counter.information(s)).sum();
+    let score = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let brute: u32 = states
+        .iter()
+        .take(20)
+        .map(|s| counter.count_brute_force(s).0)
+        .sum();
+    let brute_each = start.elapsed().as_secs_f64() / 20.0;
+    tracing::debug!(total, brute, "viewpoint scores");
+    (build, score, brute_each)
+}

@@ -58,6 +58,9 @@ enum BenchTarget {
     Render,
     /// Mapping steps (densify, iterations, prune) as the map of a 70 m2 apartment grows.
     Map,
+    /// Full RT-GuIDE plans over 1e4-3e6 Gaussians of clutter per collision engine, and
+    /// scoring 500 viewpoints over 1e6 Gaussians.
+    Plan,
 }
 
 #[derive(clap::Args)]
@@ -160,6 +163,39 @@ fn run(command: Command) -> Result<()> {
                     print_render_bench(&name, &rows);
                     timed.push(name);
                 }
+                Ok(())
+            }
+            BenchTarget::Plan => {
+                let counts = if gaussians == [10_000, 100_000, 1_000_000] {
+                    vec![10_000, 100_000, 1_000_000, 3_000_000]
+                } else {
+                    gaussians.clone()
+                };
+                let gpu = engine.iter().any(|e| e != "cpu");
+                let rows = splatloop::bench::bench_plan(&counts, 100_000, gpu);
+                println!("| Gaussians | collision engine | first plan ms | plan ms (median of 3, upkeep included) | sync+graph ms | search ms | information ms | segments |");
+                println!("|---:|---|---:|---:|---:|---:|---:|---:|");
+                for r in &rows {
+                    println!(
+                        "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} |",
+                        r.gaussians,
+                        r.engine,
+                        r.first * 1e3,
+                        r.plan * 1e3,
+                        r.stages[0] * 1e3,
+                        r.stages[1] * 1e3,
+                        r.stages[2] * 1e3,
+                        r.segments
+                    );
+                }
+                let (build, score, brute) = splatloop::bench::bench_viewpoints(1_000_000, 500);
+                println!(
+                    "500 viewpoints over 1e6 Gaussians: grid build {:.1} ms, scoring {:.2} ms ({:.1} us each); brute force {:.2} ms each",
+                    build * 1e3,
+                    score * 1e3,
+                    score * 1e6 / 500.0,
+                    brute * 1e3
+                );
                 Ok(())
             }
             BenchTarget::Map => {

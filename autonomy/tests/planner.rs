@@ -299,16 +299,19 @@ fn dijkstra_and_the_omega_over_e_to_the_d_choice_on_a_hand_built_graph() {
     assert!((paths.distance[c] - 4.0).abs() < 1e-12);
     assert!((paths.distance[far] - 5.0).abs() < 1e-12);
     assert_eq!(paths.path_to(far), vec![a, b, c, far]);
-    let (best, path, score) = g.best_viewpoint(a).expect("reachable");
+    let (best, path, score) = g.best_viewpoint(a, 0.0).expect("reachable");
     assert_eq!(best, near);
     assert_eq!(path, vec![a, near]);
     assert!((score - (-1.0f64).exp()).abs() < 1e-12);
+    // Viewpoints nearer than the minimum count as reached.
+    let (best, _, _) = g.best_viewpoint(a, 2.0).expect("reachable");
+    assert_eq!(best, far);
     // From c the rich one is near: 5 / e = 1.84 beats 1 / e^5.
-    let (best, _, _) = g.best_viewpoint(c).expect("reachable");
+    let (best, _, _) = g.best_viewpoint(c, 0.0).expect("reachable");
     assert_eq!(best, far);
     g.clear_viewpoints();
     assert!(g.nodes.iter().all(|n| n.kind == NodeKind::Odometry));
-    assert!(g.best_viewpoint(a).is_none());
+    assert!(g.best_viewpoint(a, 0.0).is_none());
     // The local goal: the furthest point of the path within range.
     let goal = local_goal(&[[0.0, 0.0], [3.0, 0.0], [3.0, 10.0]], 5.0).expect("goal");
     assert!(

@@ -31,18 +31,35 @@ pub fn regions(map: &GaussianMap, options: &ClassifyOptions, size: f64) -> Vec<R
             lo[a] = lo[a].min(f64::from(g.means[*i][a]));
         }
     }
-    let mut sums: std::collections::BTreeMap<[i64; 3], (f64, usize)> = Default::default();
+    let mut hi = [f64::MIN; 3];
+    for i in &included {
+        for a in 0..3 {
+            hi[a] = hi[a].max(f64::from(g.means[*i][a]));
+        }
+    }
+    let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / size).floor() as usize + 1);
+    let mut sums = vec![(0.0f64, 0usize); dims[0] * dims[1] * dims[2]];
     for i in included {
-        let key = [0, 1, 2].map(|a| ((f64::from(g.means[i][a]) - lo[a]) / size).floor() as i64);
-        let e = sums.entry(key).or_default();
+        let k = [0, 1, 2]
+            .map(|a| (((f64::from(g.means[i][a]) - lo[a]) / size) as usize).min(dims[a] - 1));
+        let e = &mut sums[(k[2] * dims[1] + k[1]) * dims[0] + k[0]];
         e.0 += f64::from(map.uncertainty[i]);
         e.1 += 1;
     }
     sums.into_iter()
-        .map(|(k, (sum, count))| Region {
-            centre: [0, 1, 2].map(|a| lo[a] + (k[a] as f64 + 0.5) * size),
-            count,
-            omega: sum / count as f64,
+        .enumerate()
+        .filter(|(_, (_, count))| *count > 0)
+        .map(|(j, (sum, count))| {
+            let k = [
+                j % dims[0],
+                (j / dims[0]) % dims[1],
+                j / (dims[0] * dims[1]),
+            ];
+            Region {
+                centre: [0, 1, 2].map(|a| lo[a] + (k[a] as f64 + 0.5) * size),
+                count,
+                omega: sum / count as f64,
+            }
         })
         .collect()
 }
@@ -203,15 +220,21 @@ impl TopologicalGraph {
         ShortestPaths { distance, previous }
     }
 
-    /// The viewpoint with the best Omega / e^d from `source`, and its path; `None` when no
-    /// viewpoint is reachable.
-    pub fn best_viewpoint(&self, source: usize) -> Option<(usize, Vec<usize>, f64)> {
+    /// The viewpoint with the best Omega / e^d from `source` among those at least
+    /// `min_distance` away, and its path; `None` when no such viewpoint is reachable.
+    pub fn best_viewpoint(
+        &self,
+        source: usize,
+        min_distance: f64,
+    ) -> Option<(usize, Vec<usize>, f64)> {
         let paths = self.dijkstra(source);
         self.nodes
             .iter()
             .enumerate()
             .filter_map(|(i, n)| match n.kind {
-                NodeKind::Viewpoint { omega, .. } if paths.distance[i].is_finite() => {
+                NodeKind::Viewpoint { omega, .. }
+                    if paths.distance[i].is_finite() && paths.distance[i] >= min_distance =>
+                {
                     Some((i, omega / paths.distance[i].exp()))
                 }
                 _ => None,

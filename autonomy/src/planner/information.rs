@@ -171,59 +171,108 @@ impl ViewCounter {
             return (0, 0);
         }
         let view = View::new(&self.mount, s);
-        // Cells the view can reach: the box of the sphere around the view's far corners (planar
-        // range, so the corners lie further than the range itself).
-        let spread = view.half_x.powi(2) + view.half_y_up.max(view.half_y_down).powi(2);
-        let r = view.range * (1.0 + spread).sqrt();
-        let range_cells = |a: usize| {
-            let lo = ((view.centre[a] - r - self.origin[a]) / self.cell)
-                .floor()
-                .max(0.0) as usize;
-            let hi = ((view.centre[a] + r - self.origin[a]) / self.cell).floor();
-            if hi < 0.0 {
-                return (1, 0);
+        let (f, c) = (view.forward, view.centre);
+        let right = [f[1], -f[0]];
+        // The view's six half-spaces as (normal, offset): inside when n . (p - c) + o > 0.
+        let planes: [([f32; 3], f32); 6] = [
+            ([f[0], f[1], 0.0], 0.0),
+            ([-f[0], -f[1], 0.0], view.range),
+            (
+                [
+                    view.half_x * f[0] - right[0],
+                    view.half_x * f[1] - right[1],
+                    0.0,
+                ],
+                0.0,
+            ),
+            (
+                [
+                    view.half_x * f[0] + right[0],
+                    view.half_x * f[1] + right[1],
+                    0.0,
+                ],
+                0.0,
+            ),
+            ([view.half_y_up * f[0], view.half_y_up * f[1], -1.0], 0.0),
+            ([view.half_y_down * f[0], view.half_y_down * f[1], 1.0], 0.0),
+        ];
+        // Cells under the view: its footprint (a triangle) in x, y; its height span in z.
+        let far = [
+            [c[0], c[1]],
+            [
+                c[0] + view.range * (f[0] + view.half_x * right[0]),
+                c[1] + view.range * (f[1] + view.half_x * right[1]),
+            ],
+            [
+                c[0] + view.range * (f[0] - view.half_x * right[0]),
+                c[1] + view.range * (f[1] - view.half_x * right[1]),
+            ],
+        ];
+        let span = |a: usize, lo: f32, hi: f32| -> Option<(usize, usize)> {
+            let l = ((lo - self.origin[a]) / self.cell).floor();
+            let h = ((hi - self.origin[a]) / self.cell).floor();
+            if h < 0.0 || l > (self.dims[a] - 1) as f32 {
+                return None;
             }
-            (lo, (hi as usize).min(self.dims[a] - 1))
+            Some((l.max(0.0) as usize, (h as usize).min(self.dims[a] - 1)))
         };
-        let (x0, x1) = range_cells(0);
-        let (y0, y1) = range_cells(1);
-        let (z0, z1) = range_cells(2);
+        let fold = |a: usize| {
+            far.iter().fold((f32::MAX, f32::MIN), |(lo, hi), p| {
+                (lo.min(p[a]), hi.max(p[a]))
+            })
+        };
+        let ((xl, xh), (yl, yh)) = (fold(0), fold(1));
+        let (Some((x0, x1)), Some((y0, y1)), Some((z0, z1))) = (
+            span(0, xl, xh),
+            span(1, yl, yh),
+            span(
+                2,
+                c[2] - view.half_y_down * view.range,
+                c[2] + view.half_y_up * view.range,
+            ),
+        ) else {
+            return (0, 0);
+        };
+        let half = 0.5 * self.cell;
         let (mut high, mut low) = (0u32, 0u32);
-        for cz in z0..=z1.min(self.dims[2] - 1) {
-            for cy in y0..=y1.min(self.dims[1] - 1) {
-                for cx in x0..=x1.min(self.dims[0] - 1) {
-                    if x0 > x1 || y0 > y1 || z0 > z1 {
-                        continue;
-                    }
+        for cz in z0..=z1 {
+            for cy in y0..=y1 {
+                for cx in x0..=x1 {
                     let i = (cz * self.dims[1] + cy) * self.dims[0] + cx;
                     if self.high[i] + self.low[i] == 0 {
                         continue;
                     }
-                    let corner = [cx, cy, cz].map(|c| c as f32).map(|c| c * self.cell);
-                    let base = [0, 1, 2].map(|a| self.origin[a] + corner[a]);
-                    let mut inside = 0;
-                    for k in 0..8 {
-                        let p = [
-                            base[0] + if k & 1 != 0 { self.cell } else { 0.0 },
-                            base[1] + if k & 2 != 0 { self.cell } else { 0.0 },
-                            base[2] + if k & 4 != 0 { self.cell } else { 0.0 },
-                        ];
-                        inside += usize::from(view.sees(p));
+                    let centre = [
+                        self.origin[0] + (cx as f32 + 0.5) * self.cell - c[0],
+                        self.origin[1] + (cy as f32 + 0.5) * self.cell - c[1],
+                        self.origin[2] + (cz as f32 + 0.5) * self.cell - c[2],
+                    ];
+                    let mut outside = false;
+                    let mut inside = true;
+                    for (n, o) in &planes {
+                        let v = n[0] * centre[0] + n[1] * centre[1] + n[2] * centre[2] + o;
+                        let reach = half * (n[0].abs() + n[1].abs() + n[2].abs());
+                        if v + reach < 0.0 {
+                            outside = true;
+                            break;
+                        }
+                        inside &= v - reach > 0.0;
                     }
-                    if inside == 8 {
-                        // The view region (frustum cut by the range plane) is convex.
+                    if outside {
+                        continue;
+                    }
+                    if inside {
                         high += self.high[i];
                         low += self.low[i];
-                    } else {
-                        for (m, h) in
-                            &self.members[self.starts[i] as usize..self.starts[i + 1] as usize]
-                        {
-                            if view.sees(*m) {
-                                if *h {
-                                    high += 1;
-                                } else {
-                                    low += 1;
-                                }
+                        continue;
+                    }
+                    let range = self.starts[i] as usize..self.starts[i + 1] as usize;
+                    for (m, h) in &self.members[range] {
+                        if view.sees(*m) {
+                            if *h {
+                                high += 1;
+                            } else {
+                                low += 1;
                             }
                         }
                     }

@@ -29,6 +29,9 @@ pub struct PlannerConfig {
     pub odometry_spacing: f64,
     /// Viewpoints sampled around each region.
     pub viewpoints_per_region: usize,
+    /// Viewpoints nearer than this (through the graph) count as reached and are not chosen,
+    /// metres; without it Omega / e^d keeps choosing a viewpoint next to the robot.
+    pub min_viewpoint_distance: f64,
     /// The A*.
     pub search: SearchConfig,
     /// The robot for collision checks.
@@ -49,6 +52,7 @@ impl Default for PlannerConfig {
             region_size: 2.5,
             odometry_spacing: 1.0,
             viewpoints_per_region: 8,
+            min_viewpoint_distance: 1.0,
             search: SearchConfig::default(),
             collision: CollisionModel::default(),
             mount: CameraMount::default(),
@@ -213,7 +217,7 @@ impl RtGuidePlanner {
         }
         let (_, path, _) = self
             .graph
-            .best_viewpoint(source)
+            .best_viewpoint(source, cfg.min_viewpoint_distance)
             .ok_or(PlanFailure::GoalUnreachable)?;
         let mut guidance = vec![[robot.x, robot.y]];
         guidance.extend(path.iter().map(|i| self.graph.nodes[*i].position));
