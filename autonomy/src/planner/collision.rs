@@ -52,13 +52,20 @@ impl Obstacles {
     /// Every Gaussian whose centre is at or above `ground_below` (all when `None`).
     pub fn from_gaussians(g: &Gaussians, ground_below: Option<f32>) -> Self {
         let mut o = Obstacles::default();
+        o.refill(g, ground_below);
+        o
+    }
+
+    /// [`Obstacles::from_gaussians`] into the existing buffers (no fresh allocation per plan).
+    pub fn refill(&mut self, g: &Gaussians, ground_below: Option<f32>) {
+        self.means.clear();
+        self.radii.clear();
         for i in 0..g.len() {
             if ground_below.is_none_or(|z| g.means[i][2] >= z) {
-                o.means.push(g.means[i]);
-                o.radii.push(g.log_radii[i].exp());
+                self.means.push(g.means[i]);
+                self.radii.push(g.log_radii[i].exp());
             }
         }
-        o
     }
 
     /// Number of obstacles.

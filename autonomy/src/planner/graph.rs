@@ -19,27 +19,24 @@ pub struct Region {
 /// gives each occupied one its mean uncertainty.
 pub fn regions(map: &GaussianMap, options: &ClassifyOptions, size: f64) -> Vec<Region> {
     let g = &map.gaussians;
-    let included: Vec<usize> = (0..g.len())
-        .filter(|i| options.ground_below.is_none_or(|z| g.means[*i][2] >= z))
-        .collect();
-    if included.is_empty() {
-        return Vec::new();
-    }
+    let included =
+        || (0..g.len()).filter(|i| options.ground_below.is_none_or(|z| g.means[*i][2] >= z));
     let mut lo = [f64::MAX; 3];
-    for i in &included {
+    let mut hi = [f64::MIN; 3];
+    let mut any = false;
+    for i in included() {
+        any = true;
         for a in 0..3 {
-            lo[a] = lo[a].min(f64::from(g.means[*i][a]));
+            lo[a] = lo[a].min(f64::from(g.means[i][a]));
+            hi[a] = hi[a].max(f64::from(g.means[i][a]));
         }
     }
-    let mut hi = [f64::MIN; 3];
-    for i in &included {
-        for a in 0..3 {
-            hi[a] = hi[a].max(f64::from(g.means[*i][a]));
-        }
+    if !any {
+        return Vec::new();
     }
     let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / size).floor() as usize + 1);
     let mut sums = vec![(0.0f64, 0usize); dims[0] * dims[1] * dims[2]];
-    for i in included {
+    for i in included() {
         let k = [0, 1, 2]
             .map(|a| (((f64::from(g.means[i][a]) - lo[a]) / size) as usize).min(dims[a] - 1));
         let e = &mut sums[(k[2] * dims[1] + k[1]) * dims[0] + k[0]];

@@ -105,64 +105,78 @@ impl ViewCounter {
         mount: CameraMount,
         cell: f32,
     ) -> Self {
-        let counted: Vec<([f32; 3], bool)> = means
-            .iter()
-            .zip(classes)
-            .filter_map(|(m, c)| match c {
-                UncertaintyClass::High => Some((*m, true)),
-                UncertaintyClass::Low => Some((*m, false)),
-                _ => None,
-            })
-            .collect();
+        let mut counter = ViewCounter {
+            origin: [0.0; 3],
+            cell,
+            dims: [1; 3],
+            high: Vec::new(),
+            low: Vec::new(),
+            starts: Vec::new(),
+            members: Vec::new(),
+            mount,
+            low_weight: 1.0,
+        };
+        counter.rebuild(means, classes);
+        counter
+    }
+
+    /// Refiles for a new map, reusing the buffers (a plan over 3e6 Gaussians would otherwise
+    /// spend most of its time on the kernel zeroing fresh pages).
+    pub fn rebuild(&mut self, means: &[[f32; 3]], classes: &[UncertaintyClass]) {
+        let counted =
+            |c: &UncertaintyClass| matches!(c, UncertaintyClass::High | UncertaintyClass::Low);
         let mut lo = [f32::MAX; 3];
         let mut hi = [f32::MIN; 3];
-        for (m, _) in &counted {
-            for a in 0..3 {
-                lo[a] = lo[a].min(m[a]);
-                hi[a] = hi[a].max(m[a]);
+        let mut any = false;
+        for (m, c) in means.iter().zip(classes) {
+            if counted(c) {
+                any = true;
+                for a in 0..3 {
+                    lo[a] = lo[a].min(m[a]);
+                    hi[a] = hi[a].max(m[a]);
+                }
             }
         }
-        if counted.is_empty() {
+        if !any {
             lo = [0.0; 3];
             hi = [0.0; 3];
         }
+        let cell = self.cell;
         let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / cell).floor() as usize + 1);
         let n = dims[0] * dims[1] * dims[2];
         let index = |m: &[f32; 3]| {
             let c = [0, 1, 2].map(|a| (((m[a] - lo[a]) / cell) as usize).min(dims[a] - 1));
             (c[2] * dims[1] + c[1]) * dims[0] + c[0]
         };
-        let (mut high, mut low, mut counts) = (vec![0u32; n], vec![0u32; n], vec![0u32; n + 1]);
-        for (m, is_high) in &counted {
-            let i = index(m);
-            if *is_high {
-                high[i] += 1;
-            } else {
-                low[i] += 1;
+        self.high.clear();
+        self.high.resize(n, 0);
+        self.low.clear();
+        self.low.resize(n, 0);
+        self.starts.clear();
+        self.starts.resize(n + 1, 0);
+        for (m, c) in means.iter().zip(classes) {
+            match c {
+                UncertaintyClass::High => self.high[index(m)] += 1,
+                UncertaintyClass::Low => self.low[index(m)] += 1,
+                _ => {}
             }
-            counts[i + 1] += 1;
         }
         for i in 0..n {
-            counts[i + 1] += counts[i];
+            self.starts[i + 1] = self.starts[i] + self.high[i] + self.low[i];
         }
-        let mut cursor = counts.clone();
-        let mut members = vec![([0.0f32; 3], false); counted.len()];
-        for (m, h) in &counted {
-            let i = index(m);
-            members[cursor[i] as usize] = (*m, *h);
-            cursor[i] += 1;
+        let mut cursor = self.starts.clone();
+        self.members.clear();
+        self.members
+            .resize(self.starts[n] as usize, ([0.0; 3], false));
+        for (m, c) in means.iter().zip(classes) {
+            if counted(c) {
+                let i = index(m);
+                self.members[cursor[i] as usize] = (*m, *c == UncertaintyClass::High);
+                cursor[i] += 1;
+            }
         }
-        ViewCounter {
-            origin: lo,
-            cell,
-            dims,
-            high,
-            low,
-            starts: counts,
-            members,
-            mount,
-            low_weight: 1.0,
-        }
+        self.origin = lo;
+        self.dims = dims;
     }
 
     /// (#high, #low) in view from robot state `s`.

@@ -138,6 +138,9 @@ pub struct RtGuidePlanner {
     graph: TopologicalGraph,
     grid: CollisionGrid,
     engine: CollisionEngine,
+    /// Reused between plans: refilling is cheaper than allocating 3e6 entries anew.
+    obstacles: Obstacles,
+    counter: Option<ViewCounter>,
 }
 
 fn point(model: &CollisionModel, s: &State) -> [f32; 3] {
@@ -153,6 +156,8 @@ impl RtGuidePlanner {
             graph: TopologicalGraph::default(),
             grid,
             engine,
+            obstacles: Obstacles::default(),
+            counter: None,
         }
     }
 
@@ -165,26 +170,40 @@ impl RtGuidePlanner {
     pub fn plan(&mut self, map: &GaussianMap, robot: State) -> Result<Plan, PlanFailure> {
         let t0 = Instant::now();
         let cfg = &self.config;
-        let obstacles = Obstacles::from_gaussians(&map.gaussians, cfg.classify.ground_below);
+        let mut obstacles = std::mem::take(&mut self.obstacles);
+        obstacles.refill(&map.gaussians, cfg.classify.ground_below);
+        let result = self.plan_with(map, robot, &obstacles, t0);
+        self.obstacles = obstacles;
+        result
+    }
+
+    fn plan_with(
+        &mut self,
+        map: &GaussianMap,
+        robot: State,
+        obstacles: &Obstacles,
+        t0: Instant,
+    ) -> Result<Plan, PlanFailure> {
+        let cfg = &self.config;
         if obstacles.is_empty() {
             return Err(PlanFailure::EmptyMap);
         }
         match &mut self.engine {
             CollisionEngine::Grid => {
-                self.grid.sync(&obstacles);
+                self.grid.sync(obstacles);
             }
             CollisionEngine::Gpu(gpu) => {
-                if let Err(e) = gpu.upload(&obstacles) {
+                if let Err(e) = gpu.upload(obstacles) {
                     tracing::warn!("GPU collision upload failed ({e}); using the grid");
                     self.engine = CollisionEngine::Grid;
-                    self.grid.sync(&obstacles);
+                    self.grid.sync(obstacles);
                 }
             }
             CollisionEngine::BruteForce => {}
         }
         let model = cfg.collision;
         let start_point = point(&model, &robot);
-        if self.collisions(&obstacles, &[start_point])[0] {
+        if self.collisions(obstacles, &[start_point])[0] {
             return Err(PlanFailure::StartInCollision);
         }
         let source = self.graph.visit([robot.x, robot.y], cfg.odometry_spacing);
@@ -208,7 +227,7 @@ impl RtGuidePlanner {
                 .iter()
                 .map(|(p, _)| [p[0] as f32, p[1] as f32, model.centre_height])
                 .collect();
-            let hits = self.collisions(&obstacles, &points);
+            let hits = self.collisions(obstacles, &points);
             for ((p, heading), hit) in candidates.into_iter().zip(hits) {
                 if !hit {
                     self.graph.add_viewpoint(p, region.omega, heading);
@@ -234,7 +253,7 @@ impl RtGuidePlanner {
                         owner.push(k);
                     }
                 }
-                let hits = self.collisions(&obstacles, &points);
+                let hits = self.collisions(obstacles, &points);
                 let mut ok = vec![true; segments.len()];
                 for (hit, k) in hits.into_iter().zip(owner) {
                     if hit {
@@ -251,12 +270,18 @@ impl RtGuidePlanner {
 
         let t2 = Instant::now();
         let classes = map.classify(&cfg.classify);
-        let counter = ViewCounter::new(
-            &map.gaussians.means,
-            &classes,
-            cfg.mount,
-            cfg.information_cell,
-        );
+        let counter = match self.counter.as_mut() {
+            Some(c) => {
+                c.rebuild(&map.gaussians.means, &classes);
+                c
+            }
+            None => self.counter.insert(ViewCounter::new(
+                &map.gaussians.means,
+                &classes,
+                cfg.mount,
+                cfg.information_cell,
+            )),
+        };
         let scored: Vec<(f64, &search::Trajectory)> = trajectories
             .iter()
             .map(|t| {
