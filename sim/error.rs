@@ -70,6 +70,9 @@ pub enum SimError {
         /// The OS error.
         source: std::io::Error,
     },
+    /// The mapper refused a frame, or writing the map failed.
+    #[error("mapping failed: {0}")]
+    Mapping(String),
     /// A dataset on disk is not what the reader expects.
     #[error("malformed dataset file {path}: {detail}")]
     BadDataset {

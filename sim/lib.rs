@@ -7,6 +7,7 @@ pub mod camera;
 pub mod controls;
 pub mod dataset;
 pub mod egl;
+pub mod episode;
 pub mod error;
 pub mod mujoco;
 pub mod record;

@@ -23,6 +23,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Explore a world on its own: map it online and plan with RT-GuIDE, every tick; write the
+    /// dataset, map.ply and metrics.json.
+    Run(RunArgs),
     /// Drive the robot open-loop through a world and write an RGB-D dataset with exact poses.
     Record(RecordArgs),
     /// Measure performance and print a table.
@@ -61,6 +64,47 @@ enum BenchTarget {
     /// Full RT-GuIDE plans over 1e4-3e6 Gaussians of clutter per collision engine, and
     /// scoring 500 viewpoints over 1e6 Gaussians.
     Plan,
+}
+
+#[derive(clap::Args)]
+struct RunArgs {
+    /// MJCF world that includes the robot (models/unicycle.xml).
+    #[arg(long, default_value = "worlds/room.xml")]
+    world: PathBuf,
+    /// Exploration planner (rtguide; frontier, fisher and survey are not built yet).
+    #[arg(long, default_value = "rtguide")]
+    planner: String,
+    /// Simulated seconds to explore.
+    #[arg(long, default_value_t = 60.0)]
+    budget: f64,
+    /// Seed (sensor noise).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Camera frames per simulated second.
+    #[arg(long, default_value_t = 5.0)]
+    camera_rate: f64,
+    /// Adam iterations per mapping step (one step per second).
+    #[arg(long, default_value_t = 10)]
+    iterations: usize,
+    /// wall: mapping and planning time is charged to simulated time (the robot keeps driving
+    /// its previous plan); none: the world waits.
+    #[arg(long, default_value = "wall")]
+    latency: String,
+    /// Splat engine: auto (a hardware GPU if any), cpu or gpu.
+    #[arg(long, default_value = "auto")]
+    engine: String,
+    /// Image width, pixels.
+    #[arg(long, default_value_t = 320)]
+    width: u32,
+    /// Image height, pixels.
+    #[arg(long, default_value_t = 240)]
+    height: u32,
+    /// Episode folder (must be new or empty).
+    #[arg(long, default_value = "runs/episode")]
+    out: PathBuf,
+    /// Replace the output folder if it holds an earlier episode.
+    #[arg(long)]
+    overwrite: bool,
 }
 
 #[derive(clap::Args)]
@@ -136,6 +180,7 @@ fn main() -> std::process::ExitCode {
 fn run(command: Command) -> Result<()> {
     match command {
         Command::Record(args) => run_record(args),
+        Command::Run(args) => run_run(args),
         Command::Bench {
             what,
             world,
@@ -304,6 +349,65 @@ fn print_map_bench(
         quality.psnr,
         quality.depth_mae * 100.0
     );
+}
+
+fn run_run(args: RunArgs) -> Result<()> {
+    use splatloop::episode::{run_episode, Latency, RunConfig};
+    if args.planner != "rtguide" {
+        anyhow::bail!(
+            "planner {:?} is not built yet; use --planner rtguide",
+            args.planner
+        );
+    }
+    let latency = match args.latency.as_str() {
+        "wall" => Latency::Wall,
+        "none" => Latency::None,
+        other => anyhow::bail!("unknown latency model {other:?}; use wall or none"),
+    };
+    let config = RunConfig {
+        world: args.world,
+        budget: args.budget,
+        seed: args.seed,
+        camera_rate: args.camera_rate,
+        think_period: 1.0,
+        iterations: args.iterations,
+        latency,
+        sensor: SensorConfig {
+            width: args.width,
+            height: args.height,
+            ..SensorConfig::default()
+        },
+        engine: args.engine.parse().map_err(anyhow::Error::msg)?,
+        overwrite: args.overwrite,
+        out: args.out,
+    };
+    let bar = ProgressBar::new((config.budget * 1000.0).round() as u64);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} exploring [{bar:30}] {msg} ({elapsed} wall, eta {eta})",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let budget = config.budget;
+    let metrics = run_episode(&config, &mut |t, gaussians| {
+        bar.set_position((t * 1000.0) as u64);
+        bar.set_message(format!("{t:.0}/{budget:.0} sim s, {gaussians} Gaussians"));
+    })
+    .with_context(|| format!("exploring {} failed", config.world.display()))?;
+    bar.finish_and_clear();
+    println!(
+        "explored {:.0} sim s in {:.1} wall s (real-time factor {:.2}) with {}: {} Gaussians, {:.1} m driven, {} collision steps, {} recoveries; wrote {}",
+        metrics.simulated_seconds,
+        metrics.wall_seconds,
+        metrics.real_time_factor,
+        metrics.engine,
+        metrics.gaussians,
+        metrics.path_length,
+        metrics.collision_steps,
+        metrics.recovery_events,
+        config.out.display()
+    );
+    Ok(())
 }
 
 fn run_record(args: RecordArgs) -> Result<()> {

@@ -7,6 +7,7 @@ mod writer;
 
 pub use images::{read_depth_png, read_rgb_png, write_depth_png, write_rgb_png};
 pub use reader::{Dataset, DatasetFrame};
+pub(crate) use writer::write_json;
 pub use writer::DatasetWriter;
 
 use autonomy::camera::Intrinsics;

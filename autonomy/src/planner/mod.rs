@@ -140,6 +140,9 @@ pub struct RtGuidePlanner {
     engine: CollisionEngine,
     /// Reused between plans: refilling is cheaper than allocating 3e6 entries anew.
     obstacles: Obstacles,
+    /// The viewpoint the last plan headed for: kept while it scores at least half the best,
+    /// so two similar viewpoints do not make the robot dither between them.
+    target: Option<[f64; 2]>,
     counter: Option<ViewCounter>,
 }
 
@@ -158,6 +161,7 @@ impl RtGuidePlanner {
             engine,
             obstacles: Obstacles::default(),
             counter: None,
+            target: None,
         }
     }
 
@@ -229,15 +233,45 @@ impl RtGuidePlanner {
                 .collect();
             let hits = self.collisions(obstacles, &points);
             for ((p, heading), hit) in candidates.into_iter().zip(hits) {
-                if !hit {
+                // A viewpoint the robot stands at is reached, not a goal.
+                let near = (p[0] - robot.x).hypot(p[1] - robot.y) < cfg.min_viewpoint_distance;
+                if !hit && !near {
                     self.graph.add_viewpoint(p, region.omega, heading);
                 }
             }
         }
-        let (_, path, _) = self
+        let (mut best, mut path, score) = self
             .graph
             .best_viewpoint(source, cfg.min_viewpoint_distance)
             .ok_or(PlanFailure::GoalUnreachable)?;
+        if let Some(target) = self
+            .target
+            .filter(|t| (t[0] - robot.x).hypot(t[1] - robot.y) >= cfg.min_viewpoint_distance)
+        {
+            let paths = self.graph.dijkstra(source);
+            let kept = self
+                .graph
+                .nodes
+                .iter()
+                .enumerate()
+                .find_map(|(i, n)| match n.kind {
+                    graph::NodeKind::Viewpoint { omega, .. }
+                        if paths.distance[i].is_finite()
+                            && paths.distance[i] >= cfg.min_viewpoint_distance
+                            && (n.position[0] - target[0]).hypot(n.position[1] - target[1])
+                                < 0.5
+                            && omega / paths.distance[i].exp() >= 0.5 * score =>
+                    {
+                        Some(i)
+                    }
+                    _ => None,
+                });
+            if let Some(i) = kept {
+                best = i;
+                path = paths.path_to(i);
+            }
+        }
+        self.target = Some(self.graph.nodes[best].position);
         let mut guidance = vec![[robot.x, robot.y]];
         guidance.extend(path.iter().map(|i| self.graph.nodes[*i].position));
         let goal = local_goal(&guidance, cfg.search.horizon).unwrap_or([robot.x, robot.y]);
