@@ -4,5 +4,6 @@ mod bad_input;
 mod dataset;
 mod drive;
 mod egl;
+mod episode;
 mod sensor;
 mod support;

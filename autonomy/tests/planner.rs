@@ -376,4 +376,22 @@ fn failures_come_back_as_values_with_a_recovery() {
     let plan = planner.plan(&map_of(&wall()), origin).expect("plan");
     assert!(!plan.controls.is_empty());
     assert_eq!(plan.states.len(), plan.controls.len() + 1);
+    // Plans from new places grow the graph; earlier viewpoints must not confuse the indices.
+    for x in [1.2, -1.3, -0.2] {
+        let moved = State {
+            x,
+            y: -1.0,
+            theta: 0.0,
+        };
+        planner
+            .plan(&map_of(&wall()), moved)
+            .expect("plan from a new place");
+    }
+    let odometry = planner
+        .graph()
+        .nodes
+        .iter()
+        .filter(|n| n.kind == NodeKind::Odometry)
+        .count();
+    assert_eq!(odometry, 4);
 }

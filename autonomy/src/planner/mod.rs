@@ -210,8 +210,9 @@ impl RtGuidePlanner {
         if self.collisions(obstacles, &[start_point])[0] {
             return Err(PlanFailure::StartInCollision);
         }
-        let source = self.graph.visit([robot.x, robot.y], cfg.odometry_spacing);
+        // Viewpoints first: clearing them renumbers the nodes after them.
         self.graph.clear_viewpoints();
+        let source = self.graph.visit([robot.x, robot.y], cfg.odometry_spacing);
         let cfg = self.config.clone();
         let k = &cfg.mount.intrinsics;
         let half_fov = (k.cx / k.fx).atan().min((k.cy / k.fy).atan());
