@@ -147,17 +147,39 @@ impl Schedule {
     }
 }
 
-/// The recovery manoeuvres: a look around (turn in place) or a back-off (the unicycle cannot
-/// reverse, so it turns half round and drives a little the other way).
-fn recovery_schedule(kind: Recovery, start: f64) -> Schedule {
-    let turn = UnicycleCommand { v: 0.0, w: 0.9 };
+/// The recovery manoeuvres: a look around (turn in place for 3 s) or a back-off. The unicycle
+/// cannot reverse, so backing off turns in place to `away` (half round when not known) and
+/// drives 0.15 m that way. Steps of 0.1 s.
+fn recovery_schedule(kind: Recovery, start: f64, heading: f64, away: Option<f64>) -> Schedule {
+    let tick = 0.1;
+    let turn_rate = 0.9;
     let controls = match kind {
-        Recovery::TurnInPlace => vec![turn; 3],
-        Recovery::BackOff => vec![turn, turn, turn, UnicycleCommand { v: 0.3, w: 0.0 }],
+        Recovery::TurnInPlace => vec![
+            UnicycleCommand {
+                v: 0.0,
+                w: turn_rate
+            };
+            30
+        ],
+        Recovery::BackOff => {
+            let target = away.unwrap_or(heading + std::f64::consts::PI);
+            let diff = (target - heading + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI;
+            let turn_ticks = (diff.abs() / turn_rate / tick).round() as usize;
+            let mut c = vec![
+                UnicycleCommand {
+                    v: 0.0,
+                    w: turn_rate * diff.signum()
+                };
+                turn_ticks
+            ];
+            c.extend(vec![UnicycleCommand { v: 0.3, w: 0.0 }; 5]);
+            c
+        }
     };
     Schedule {
         start,
-        period: 1.0,
+        period: tick,
         controls,
     }
 }
@@ -278,9 +300,14 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(f64, usize)) 
                 },
                 Err(failure) => {
                     recovery_events += 1;
-                    let (name, kind) = match &failure {
-                        Some(f) => (format!("{f:?}"), f.recovery()),
-                        None => ("NoProgress".to_owned(), Recovery::BackOff),
+                    let (name, kind, away) = match &failure {
+                        Some(PlanFailure::StartInCollision { away }) => (
+                            "StartInCollision".to_owned(),
+                            Recovery::BackOff,
+                            Some(*away),
+                        ),
+                        Some(f) => (format!("{f:?}"), f.recovery(), None),
+                        None => ("NoProgress".to_owned(), Recovery::BackOff, None),
                     };
                     tracing::info!(
                         "t = {time:.1} s: {} -> recovery {kind:?}",
@@ -290,7 +317,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(f64, usize)) 
                     );
                     *failures.entry(name).or_insert(0) += 1;
                     progress_check = (time, pose);
-                    recovery_schedule(kind, start)
+                    recovery_schedule(kind, start, pose.theta, away)
                 }
             };
             if time - progress_check.0 >= 10.0 {

@@ -346,12 +346,21 @@ fn failures_come_back_as_values_with_a_recovery() {
     );
     // Start in collision: a Gaussian right at the robot.
     let mut obstacles = wall();
-    obstacles.means.push([0.0, 0.0, 0.25]);
+    obstacles.means.push([0.1, 0.0, 0.25]);
     obstacles.radii.push(0.02);
     let failure = planner
         .plan(&map_of(&obstacles), origin)
         .expect_err("in collision");
-    assert_eq!(failure, PlanFailure::StartInCollision);
+    // The Gaussian sits right at the robot and the wall is 2 m ahead (+x): away is -x.
+    match failure {
+        PlanFailure::StartInCollision { away } => {
+            assert!(
+                (away.abs() - std::f64::consts::PI).abs() < 0.3,
+                "away {away}"
+            )
+        }
+        other => panic!("expected StartInCollision, got {other:?}"),
+    }
     assert_eq!(failure.recovery(), Recovery::BackOff);
     // Boxed in: a ring of Gaussians 0.45 m away; every primitive that moves collides and
     // turning in place never gets anywhere.

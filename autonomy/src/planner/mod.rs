@@ -70,8 +70,11 @@ pub enum PlanFailure {
     #[error("the map has no Gaussians above the ground plane yet; turn in place to look around")]
     EmptyMap,
     /// The robot's own position is in collision with the map.
-    #[error("the robot's position collides with the map (nearest obstacle within r_robot + 3 r); back off and replan")]
-    StartInCollision,
+    #[error("the robot's position collides with the map (an obstacle within r_robot + 3 r); back off toward heading {away:.2} rad and replan")]
+    StartInCollision {
+        /// Heading (radians) pointing away from the colliding Gaussians: where to back off.
+        away: f64,
+    },
     /// Every primitive from the start collides.
     #[error("every motion primitive from here collides; turn in place to look around")]
     NoCollisionFreeCandidate,
@@ -95,7 +98,7 @@ impl PlanFailure {
     /// The recovery the planner suggests.
     pub fn recovery(&self) -> Recovery {
         match self {
-            PlanFailure::StartInCollision => Recovery::BackOff,
+            PlanFailure::StartInCollision { .. } => Recovery::BackOff,
             _ => Recovery::TurnInPlace,
         }
     }
@@ -208,7 +211,17 @@ impl RtGuidePlanner {
         let model = cfg.collision;
         let start_point = point(&model, &robot);
         if self.collisions(obstacles, &[start_point])[0] {
-            return Err(PlanFailure::StartInCollision);
+            // Away from the colliding Gaussians: the sum of their unit offsets.
+            let (mut ax, mut ay) = (0.0f64, 0.0f64);
+            for (m, r) in obstacles.means.iter().zip(&obstacles.radii) {
+                if model.collides(start_point, *m, *r) {
+                    let (dx, dy) = (robot.x - f64::from(m[0]), robot.y - f64::from(m[1]));
+                    let n = dx.hypot(dy).max(1e-6);
+                    ax += dx / n;
+                    ay += dy / n;
+                }
+            }
+            return Err(PlanFailure::StartInCollision { away: ay.atan2(ax) });
         }
         // Viewpoints first: clearing them renumbers the nodes after them.
         self.graph.clear_viewpoints();
