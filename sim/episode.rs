@@ -48,6 +48,8 @@ pub struct RunConfig {
     pub latency: Latency,
     /// The camera.
     pub sensor: SensorConfig,
+    /// Hidden test views sampled in free space for the evaluation (0: none).
+    pub test_views: usize,
     /// Splat engine asked for.
     #[serde(skip)]
     pub engine: EngineChoice,
@@ -108,6 +110,8 @@ pub struct Metrics {
     pub planning: StageTime,
     /// The splat engine used.
     pub engine: String,
+    /// The map on hidden test views.
+    pub evaluation: crate::evaluate::Evaluation,
 }
 
 #[derive(Serialize)]
@@ -337,6 +341,22 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(f64, usize)) 
     autonomy::ply::write(mapper.map(), &config.out.join("map.ply"))
         .map_err(|e| SimError::Mapping(e.to_string()))?;
     let simulated = world.data().time();
+    let final_pose = world.pose();
+    // Evaluate last: it moves the robot to each test pose.
+    let poses = crate::evaluate::sample_test_poses(
+        &world,
+        [-15.0, -15.0],
+        [15.0, 15.0],
+        config.test_views,
+        config.seed ^ 0x7e57,
+    );
+    let evaluation = crate::evaluate::evaluate(
+        &mut world,
+        &mut camera,
+        mapper.engine(),
+        mapper.map(),
+        &poses,
+    )?;
     let wall_seconds = wall.elapsed().as_secs_f64();
     let metrics = Metrics {
         simulated_seconds: simulated,
@@ -352,13 +372,14 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(f64, usize)) 
         mapping: stage(mapping_times),
         planning: stage(planning_times),
         engine: engine_name,
+        evaluation,
     };
     crate::dataset::write_json(&config.out.join("metrics.json"), &metrics)?;
     writer.finish(&EpisodeFile {
         command: "run",
         config,
         versions: Versions::current(&gl),
-        final_pose: world.pose(),
+        final_pose,
     })?;
     Ok(metrics)
 }

@@ -9,6 +9,7 @@ pub mod dataset;
 pub mod egl;
 pub mod episode;
 pub mod error;
+pub mod evaluate;
 pub mod mujoco;
 pub mod record;
 pub mod robot;

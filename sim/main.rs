@@ -99,6 +99,9 @@ struct RunArgs {
     /// Image height, pixels.
     #[arg(long, default_value_t = 240)]
     height: u32,
+    /// Hidden test views for the evaluation, sampled in free space (0: skip).
+    #[arg(long, default_value_t = 100)]
+    test_views: usize,
     /// Episode folder (must be new or empty).
     #[arg(long, default_value = "runs/episode")]
     out: PathBuf,
@@ -377,6 +380,7 @@ fn run_run(args: RunArgs) -> Result<()> {
             height: args.height,
             ..SensorConfig::default()
         },
+        test_views: args.test_views,
         engine: args.engine.parse().map_err(anyhow::Error::msg)?,
         overwrite: args.overwrite,
         out: args.out,
@@ -406,6 +410,13 @@ fn run_run(args: RunArgs) -> Result<()> {
         metrics.collision_steps,
         metrics.recovery_events,
         config.out.display()
+    );
+    println!(
+        "hidden views: {}, PSNR {:.2} dB, depth MAE {:.3} m, RMSE {:.3} m",
+        metrics.evaluation.views,
+        metrics.evaluation.psnr,
+        metrics.evaluation.depth_mae,
+        metrics.evaluation.depth_rmse
     );
     Ok(())
 }

@@ -16,6 +16,7 @@ fn config(out: std::path::PathBuf) -> RunConfig {
         iterations: 10,
         latency: Latency::None,
         sensor: SensorConfig::default(),
+        test_views: 20,
         engine: autonomy::splat::EngineChoice::Cpu,
         overwrite: false,
         out,
@@ -47,6 +48,25 @@ fn smoke_episode_explores_without_collisions_and_repeats_exactly() {
         "the same inputs gave different trajectories"
     );
     assert_eq!(first.path_length, second.path_length);
+    assert_eq!(first.evaluation.views, 20);
+    // Measured on the CI machine: 15.0 dB on 20 hidden views after 30 s (the robot has seen
+    // only part of the room by then).
+    assert!(
+        first.evaluation.psnr > 13.0,
+        "PSNR {:.2} dB",
+        first.evaluation.psnr
+    );
+    // The test poses are in free space: at least 0.4 m from every wall and obstacle.
+    let world =
+        splatloop::world::World::load(&repo_path("worlds/room.xml"), &SensorConfig::default())
+            .expect("world");
+    for pose in splatloop::evaluate::sample_test_poses(&world, [-15.0, -15.0], [15.0, 15.0], 20, 5)
+    {
+        assert!(
+            pose.x.abs() < 3.0 && pose.y.abs() < 3.0,
+            "{pose:?} is outside the room"
+        );
+    }
     // The map is written and reads back.
     let map = autonomy::ply::read(&dir.path().join("a").join("map.ply")).expect("map.ply");
     assert_eq!(map.len(), first.gaussians);
