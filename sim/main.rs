@@ -193,15 +193,8 @@ fn run(command: Command) -> Result<()> {
             engine,
         } => match what {
             BenchTarget::Render => {
-                let mut timed: Vec<String> = Vec::new();
-                for choice in &engine {
-                    let choice: EngineChoice = choice.parse().map_err(anyhow::Error::msg)?;
-                    let rasteriser = Rasteriser::select(choice);
+                for rasteriser in distinct_engines(&engine)? {
                     let name = rasteriser.describe();
-                    if timed.contains(&name) {
-                        println!("({choice:?} resolved to {name}, already timed)");
-                        continue;
-                    }
                     let rows = splatloop::bench::bench_render(
                         &rasteriser,
                         &[(320, 240), (640, 480)],
@@ -209,7 +202,6 @@ fn run(command: Command) -> Result<()> {
                         iterations.max(1),
                     )?;
                     print_render_bench(&name, &rows);
-                    timed.push(name);
                 }
                 Ok(())
             }
@@ -247,14 +239,8 @@ fn run(command: Command) -> Result<()> {
                 Ok(())
             }
             BenchTarget::Map => {
-                for choice in &engine {
-                    let choice: EngineChoice = choice.parse().map_err(anyhow::Error::msg)?;
-                    let rasteriser = Rasteriser::select(choice);
+                for rasteriser in distinct_engines(&engine)? {
                     let name = rasteriser.describe();
-                    if choice == EngineChoice::Auto && !rasteriser.is_gpu() {
-                        println!("(auto resolved to {name}, already timed)");
-                        continue;
-                    }
                     let (rows, quality) = splatloop::bench::bench_map(rasteriser, 320, 240, 10)?;
                     print_map_bench(&name, &rows, &quality);
                 }
@@ -288,6 +274,23 @@ fn run(command: Command) -> Result<()> {
             }
         },
     }
+}
+
+/// The engines `choices` resolve to, each once: `auto` on a machine without a hardware GPU is
+/// the CPU engine, timed once even when `cpu` is also listed.
+fn distinct_engines(choices: &[String]) -> Result<Vec<Rasteriser>> {
+    let mut engines: Vec<Rasteriser> = Vec::new();
+    for choice in choices {
+        let choice: EngineChoice = choice.parse().map_err(anyhow::Error::msg)?;
+        let rasteriser = Rasteriser::select(choice);
+        let name = rasteriser.describe();
+        if engines.iter().any(|e| e.describe() == name) {
+            println!("({choice:?} resolved to {name}, already timed)");
+        } else {
+            engines.push(rasteriser);
+        }
+    }
+    Ok(engines)
 }
 
 fn print_render_bench(engine: &str, rows: &[splatloop::bench::RenderBenchRow]) {
