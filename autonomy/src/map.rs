@@ -33,6 +33,13 @@ pub struct ClassifyOptions {
     pub ground_below: Option<f32>,
 }
 
+impl ClassifyOptions {
+    /// Whether a Gaussian centred at `mean` is considered (not on the ground plane).
+    pub fn includes(&self, mean: &[f32; 3]) -> bool {
+        self.ground_below.is_none_or(|z| mean[2] >= z)
+    }
+}
+
 impl Default for ClassifyOptions {
     fn default() -> Self {
         ClassifyOptions {
@@ -64,9 +71,7 @@ impl GaussianMap {
     }
 
     fn included(&self, i: usize, options: &ClassifyOptions) -> bool {
-        options
-            .ground_below
-            .is_none_or(|z| self.gaussians.means[i][2] >= z)
+        options.includes(&self.gaussians.means[i])
     }
 
     /// Statistics of the uncertainty over the included Gaussians.

@@ -312,6 +312,22 @@ fn dijkstra_and_the_omega_over_e_to_the_d_choice_on_a_hand_built_graph() {
     g.clear_viewpoints();
     assert!(g.nodes.iter().all(|n| n.kind == NodeKind::Odometry));
     assert!(g.best_viewpoint(a, 0.0).is_none());
+    // The last target is kept while it scores at least half the best, not below.
+    let best_now = g.add_viewpoint([0.0, 1.0], 1.0, 0.0); // 1 / e = 0.37
+    let close = g.add_viewpoint([0.0, -1.0], 0.8, 0.0); // 0.8 / e = 0.29
+    let poor = g.add_viewpoint([-1.0, 0.0], 0.4, 0.0); // 0.4 / e = 0.15
+    let pick = |previous| {
+        g.best_viewpoint_keeping(a, 0.0, previous)
+            .expect("reachable")
+            .0
+    };
+    assert_eq!(pick(None), best_now);
+    assert_eq!(pick(Some([0.1, -1.0])), close);
+    assert_eq!(
+        pick(Some([-1.0, 0.1])),
+        best_now,
+        "{poor} scores under half the best"
+    );
     // The local goal: the furthest point of the path within range.
     let goal = local_goal(&[[0.0, 0.0], [3.0, 0.0], [3.0, 10.0]], 5.0).expect("goal");
     assert!(

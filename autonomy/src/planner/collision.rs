@@ -4,6 +4,7 @@
 //! kept in sync with the map incrementally.
 
 use crate::gaussians::Gaussians;
+use crate::map::ClassifyOptions;
 use std::collections::HashMap;
 
 /// The robot as the collision check sees it.
@@ -49,19 +50,19 @@ pub struct Obstacles {
 }
 
 impl Obstacles {
-    /// Every Gaussian whose centre is at or above `ground_below` (all when `None`).
-    pub fn from_gaussians(g: &Gaussians, ground_below: Option<f32>) -> Self {
+    /// Every Gaussian `options` includes (the ground plane left out).
+    pub fn from_gaussians(g: &Gaussians, options: &ClassifyOptions) -> Self {
         let mut o = Obstacles::default();
-        o.refill(g, ground_below);
+        o.refill(g, options);
         o
     }
 
     /// [`Obstacles::from_gaussians`] into the existing buffers (no fresh allocation per plan).
-    pub fn refill(&mut self, g: &Gaussians, ground_below: Option<f32>) {
+    pub fn refill(&mut self, g: &Gaussians, options: &ClassifyOptions) {
         self.means.clear();
         self.radii.clear();
         for i in 0..g.len() {
-            if ground_below.is_none_or(|z| g.means[i][2] >= z) {
+            if options.includes(&g.means[i]) {
                 self.means.push(g.means[i]);
                 self.radii.push(g.log_radii[i].exp());
             }

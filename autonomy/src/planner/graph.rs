@@ -19,8 +19,7 @@ pub struct Region {
 /// gives each occupied one its mean uncertainty.
 pub fn regions(map: &GaussianMap, options: &ClassifyOptions, size: f64) -> Vec<Region> {
     let g = &map.gaussians;
-    let included =
-        || (0..g.len()).filter(|i| options.ground_below.is_none_or(|z| g.means[*i][2] >= z));
+    let included = || (0..g.len()).filter(|i| options.includes(&g.means[*i]));
     let mut lo = [f64::MAX; 3];
     let mut hi = [f64::MIN; 3];
     let mut any = false;
@@ -224,8 +223,23 @@ impl TopologicalGraph {
         source: usize,
         min_distance: f64,
     ) -> Option<(usize, Vec<usize>, f64)> {
+        self.best_viewpoint_keeping(source, min_distance, None)
+    }
+
+    /// [`TopologicalGraph::best_viewpoint`], except that a viewpoint within
+    /// `KEEP_RADIUS` of `previous` (the last plan's target) wins while it scores at least
+    /// `KEEP_FRACTION` of the best, so two similar viewpoints do not make the robot dither.
+    pub fn best_viewpoint_keeping(
+        &self,
+        source: usize,
+        min_distance: f64,
+        previous: Option<[f64; 2]>,
+    ) -> Option<(usize, Vec<usize>, f64)> {
+        const KEEP_RADIUS: f64 = 0.5;
+        const KEEP_FRACTION: f64 = 0.5;
         let paths = self.dijkstra(source);
-        self.nodes
+        let scores: Vec<(usize, f64)> = self
+            .nodes
             .iter()
             .enumerate()
             .filter_map(|(i, n)| match n.kind {
@@ -236,8 +250,22 @@ impl TopologicalGraph {
                 }
                 _ => None,
             })
-            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
-            .map(|(i, score)| (i, paths.path_to(i), score))
+            .collect();
+        let (mut best, mut score) = scores
+            .iter()
+            .copied()
+            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))?;
+        if let Some(target) = previous {
+            let kept = scores.iter().copied().find(|(i, s)| {
+                let p = self.nodes[*i].position;
+                (p[0] - target[0]).hypot(p[1] - target[1]) < KEEP_RADIUS
+                    && *s >= KEEP_FRACTION * score
+            });
+            if let Some((i, s)) = kept {
+                (best, score) = (i, s);
+            }
+        }
+        Some((best, paths.path_to(best), score))
     }
 }
 

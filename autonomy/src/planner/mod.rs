@@ -178,7 +178,7 @@ impl RtGuidePlanner {
         let t0 = Instant::now();
         let cfg = &self.config;
         let mut obstacles = std::mem::take(&mut self.obstacles);
-        obstacles.refill(&map.gaussians, cfg.classify.ground_below);
+        obstacles.refill(&map.gaussians, &cfg.classify);
         let result = self.plan_with(map, robot, &obstacles, t0);
         self.obstacles = obstacles;
         result
@@ -254,37 +254,13 @@ impl RtGuidePlanner {
                 }
             }
         }
-        let (mut best, mut path, score) = self
-            .graph
-            .best_viewpoint(source, cfg.min_viewpoint_distance)
-            .ok_or(PlanFailure::GoalUnreachable)?;
-        if let Some(target) = self
+        let previous = self
             .target
-            .filter(|t| (t[0] - robot.x).hypot(t[1] - robot.y) >= cfg.min_viewpoint_distance)
-        {
-            let paths = self.graph.dijkstra(source);
-            let kept = self
-                .graph
-                .nodes
-                .iter()
-                .enumerate()
-                .find_map(|(i, n)| match n.kind {
-                    graph::NodeKind::Viewpoint { omega, .. }
-                        if paths.distance[i].is_finite()
-                            && paths.distance[i] >= cfg.min_viewpoint_distance
-                            && (n.position[0] - target[0]).hypot(n.position[1] - target[1])
-                                < 0.5
-                            && omega / paths.distance[i].exp() >= 0.5 * score =>
-                    {
-                        Some(i)
-                    }
-                    _ => None,
-                });
-            if let Some(i) = kept {
-                best = i;
-                path = paths.path_to(i);
-            }
-        }
+            .filter(|t| (t[0] - robot.x).hypot(t[1] - robot.y) >= cfg.min_viewpoint_distance);
+        let (best, path, _) = self
+            .graph
+            .best_viewpoint_keeping(source, cfg.min_viewpoint_distance, previous)
+            .ok_or(PlanFailure::GoalUnreachable)?;
         self.target = Some(self.graph.nodes[best].position);
         let mut guidance = vec![[robot.x, robot.y]];
         guidance.extend(path.iter().map(|i| self.graph.nodes[*i].position));
