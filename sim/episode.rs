@@ -8,8 +8,10 @@ use crate::camera::SensorConfig;
 use crate::dataset::DatasetWriter;
 use crate::egl::EglContext;
 use crate::error::{Result, SimError};
+use crate::evaluate::{evaluate, TestSet};
 use crate::record::Versions;
 use crate::robot::{Pose2, UnicycleCommand};
+use crate::survey::{plan_survey, SurveyConfig, SurveyDriver};
 use crate::world::World;
 use autonomy::mapping::{Frame, Mapper, MapperConfig};
 use autonomy::planner::unicycle::State;
@@ -29,6 +31,31 @@ pub enum Latency {
     None,
 }
 
+/// Which planner drives the robot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PlannerKind {
+    /// RT-GuIDE: information-driven, on the map alone.
+    RtGuide,
+    /// The ground-truth lawn-mower survey: knows the world, the upper bound.
+    Survey,
+}
+
+impl std::str::FromStr for PlannerKind {
+    type Err = String;
+
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "rtguide" => Ok(PlannerKind::RtGuide),
+            "survey" => Ok(PlannerKind::Survey),
+            "frontier" | "fisher" => Err(format!(
+                "planner {s:?} is not built yet; use rtguide or survey"
+            )),
+            other => Err(format!("unknown planner {other:?}; use rtguide or survey")),
+        }
+    }
+}
+
 /// Everything that defines an episode.
 #[derive(Debug, Clone, Serialize)]
 pub struct RunConfig {
@@ -46,6 +73,8 @@ pub struct RunConfig {
     pub iterations: usize,
     /// Latency model.
     pub latency: Latency,
+    /// The planner.
+    pub planner: PlannerKind,
     /// The camera.
     pub sensor: SensorConfig,
     /// Hidden test views sampled in free space for the evaluation (0: none).
@@ -110,6 +139,10 @@ pub struct Metrics {
     pub planning: StageTime,
     /// The splat engine used.
     pub engine: String,
+    /// Why the episode ended: "budget", "survey complete", or "stuck: ...".
+    pub ended: String,
+    /// Peak resident memory of the process (VmHWM), bytes; 0 where the OS does not say.
+    pub peak_memory_bytes: u64,
     /// The map on hidden test views.
     pub evaluation: crate::evaluate::Evaluation,
 }
@@ -188,8 +221,104 @@ fn recovery_schedule(kind: Recovery, start: f64, heading: f64, away: Option<f64>
     }
 }
 
-/// Runs an episode; `on_progress(sim_time, gaussians)` is called after each mapping step.
-pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(f64, usize)) -> Result<Metrics> {
+/// What the progress callback hears after each mapping step.
+#[derive(Debug, Clone, Copy)]
+pub struct Progress {
+    /// Simulated seconds.
+    pub time: f64,
+    /// Gaussians in the map.
+    pub gaussians: usize,
+    /// Coverage of the hidden test set so far (refreshed every 10 simulated seconds).
+    pub coverage: Option<f64>,
+}
+
+/// Recoveries that did not get the robot out: ends an episode whose robot is boxed in.
+#[derive(Debug)]
+struct StuckWatch {
+    anchor: (f64, Pose2),
+    recoveries: usize,
+}
+
+impl StuckWatch {
+    /// Distance the robot must get from where it was to count as free, metres.
+    const ESCAPE: f64 = 0.3;
+    /// Recoveries and simulated seconds without escaping before the episode ends.
+    const RECOVERIES: usize = 3;
+    const SECONDS: f64 = 30.0;
+
+    fn new(pose: Pose2) -> Self {
+        StuckWatch {
+            anchor: (0.0, pose),
+            recoveries: 0,
+        }
+    }
+
+    /// Notes the pose (and whether a recovery was started) at a think; returns the reason to
+    /// give up when the robot is boxed in.
+    fn update(&mut self, time: f64, pose: Pose2, recovered: bool) -> Option<String> {
+        let (t0, p0) = self.anchor;
+        if (pose.x - p0.x).hypot(pose.y - p0.y) > Self::ESCAPE {
+            self.anchor = (time, pose);
+            self.recoveries = 0;
+            return None;
+        }
+        self.recoveries += usize::from(recovered);
+        (self.recoveries >= Self::RECOVERIES && time - t0 >= Self::SECONDS).then(|| {
+            format!(
+                "stuck: {} recoveries in {:.0} s left the robot within {} m of ({:.2}, {:.2}), so \
+                 the episode ended early. The robot is boxed in, or the planner finds no way out; \
+                 check the world around that point",
+                self.recoveries,
+                time - t0,
+                Self::ESCAPE,
+                p0.x,
+                p0.y
+            )
+        })
+    }
+}
+
+/// Where the unicycle model puts the robot after following `schedule` from `pose` at `time`
+/// for `lead` seconds: the pose a plan that starts after the compute delay must start from.
+fn predict(pose: Pose2, schedule: &Schedule, time: f64, lead: f64) -> State {
+    let mut state = State {
+        x: pose.x,
+        y: pose.y,
+        theta: pose.theta,
+    };
+    let dt: f64 = 0.02;
+    let mut t = 0.0;
+    while t < lead {
+        let step = dt.min(lead - t);
+        let u = schedule.at(time + t);
+        state = autonomy::planner::unicycle::advance(
+            &state,
+            &autonomy::planner::unicycle::Control { v: u.v, w: u.w },
+            step,
+        );
+        t += step;
+    }
+    state
+}
+
+/// Peak resident memory of this process in bytes (Linux's VmHWM), 0 where unknown.
+pub fn peak_memory_bytes() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|status| {
+            status.lines().find_map(|line| {
+                let kb = line.strip_prefix("VmHWM:")?.trim().strip_suffix("kB")?;
+                kb.trim().parse::<u64>().ok()
+            })
+        })
+        .map_or(0, |kb| kb * 1024)
+}
+
+/// The robot's path: planar poses every 0.1 simulated seconds.
+pub type Path2 = Vec<Pose2>;
+
+/// Runs an episode; `on_progress` is called after each mapping step.
+pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) -> Result<Metrics> {
     for (what, v) in [
         ("budget", config.budget),
         ("camera rate", config.camera_rate),
@@ -221,11 +350,27 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(f64, usize)) 
     planner_config.mount.intrinsics = *camera.intrinsics();
     planner_config.mount.range = config.sensor.max_range;
     let mut planner = RtGuidePlanner::new(planner_config, CollisionEngine::Grid);
+    let mut survey = match config.planner {
+        PlannerKind::Survey => Some(SurveyDriver::new(plan_survey(
+            &world,
+            &SurveyConfig::default(),
+        )?)),
+        PlannerKind::RtGuide => None,
+    };
+    // The hidden test set, fixed before the episode so coverage can be reported as it grows.
+    let tests = TestSet::sample(
+        &world,
+        &camera,
+        config.test_views,
+        config.seed ^ 0x7e57,
+        config.sensor.max_range,
+    )?;
 
     let timestep = world.model().timestep();
     let steps = (config.budget / timestep).round() as u64;
     let frame_period = 1.0 / config.camera_rate;
-    let (mut next_frame, mut next_think) = (0.0, 0.0);
+    let (mut next_frame, mut next_think, mut next_coverage) = (0.0, 0.0, 0.0);
+    let mut coverage = None;
     let mut frame = camera.blank_frame();
     let mut have_frame = false;
     let mut current = Schedule::idle(0.0);
@@ -234,8 +379,12 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(f64, usize)) 
     let mut failures = std::collections::BTreeMap::new();
     let (mut collision_steps, mut recovery_events, mut path_length) = (0, 0, 0.0);
     let mut last_pose = world.pose();
+    let mut path: Path2 = vec![last_pose];
     let mut progress_check = (0.0, last_pose);
-    for _ in 0..steps {
+    let mut stuck = StuckWatch::new(last_pose);
+    let mut recent_delays = std::collections::VecDeque::from([0.0f64]);
+    let mut ended = String::from("budget");
+    for step in 0..steps {
         let time = world.data().time();
         if time + 0.5 * timestep >= next_frame {
             camera.capture_into(world.data(), &mut frame)?;
@@ -263,99 +412,134 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(f64, usize)) 
                 .map_err(|e| SimError::Mapping(e.to_string()))?;
             let t1 = Instant::now();
             let pose = world.pose();
-            let robot = State {
-                x: pose.x,
-                y: pose.y,
-                theta: pose.theta,
-            };
-            // No progress for 10 s: back off and replan.
-            let stuck = time - progress_check.0 >= 10.0
-                && ((pose.x - progress_check.1.x).powi(2) + (pose.y - progress_check.1.y).powi(2))
-                    .sqrt()
-                    < 0.2;
-            let plan = if stuck {
-                Err(None)
-            } else {
-                planner.plan(mapper.map(), robot).map_err(Some)
-            };
-            let t2 = Instant::now();
             mapping_times.push((t1 - t0).as_secs_f64());
-            planning_times.push((t2 - t1).as_secs_f64());
-            let delay = match config.latency {
-                Latency::Wall => (t2 - t0).as_secs_f64(),
-                Latency::None => 0.0,
-            };
-            let start = time + delay;
-            if let Ok(p) = &plan {
-                tracing::debug!(
-                    "t = {time:.1} s at ({:.2}, {:.2}): goal ({:.2}, {:.2}), {} candidates, xi {}, controls {:?}",
-                    pose.x, pose.y, p.local_goal[0], p.local_goal[1], p.candidates, p.information, p.controls
-                );
-            }
-            let schedule = match plan {
-                Ok(p) => Schedule {
-                    start,
-                    period: 1.0,
-                    controls: p
-                        .controls
-                        .iter()
-                        .map(|u| UnicycleCommand { v: u.v, w: u.w })
-                        .collect(),
-                },
-                Err(failure) => {
-                    recovery_events += 1;
-                    let (name, kind, away) = match &failure {
-                        Some(PlanFailure::StartInCollision { away }) => (
-                            "StartInCollision".to_owned(),
-                            Recovery::BackOff,
-                            Some(*away),
-                        ),
-                        Some(f) => (format!("{f:?}"), f.recovery(), None),
-                        None => ("NoProgress".to_owned(), Recovery::BackOff, None),
-                    };
-                    tracing::info!(
-                        "t = {time:.1} s: {} -> recovery {kind:?}",
-                        failure
-                            .as_ref()
-                            .map_or("no progress for 10 s".to_owned(), PlanFailure::to_string)
+            if survey.is_none() {
+                // With wall latency the new schedule starts after the compute delay, so it is
+                // planned from where the current one will have taken the robot by then; the
+                // delay is estimated by the slowest of the last three thinks.
+                let lead = match config.latency {
+                    Latency::Wall => recent_delays.iter().copied().fold(0.0, f64::max),
+                    Latency::None => 0.0,
+                };
+                let active = pending.as_ref().unwrap_or(&current);
+                let robot = predict(pose, active, time, lead);
+                // No progress for 10 s: back off and replan.
+                let no_progress = time - progress_check.0 >= 10.0
+                    && (pose.x - progress_check.1.x).hypot(pose.y - progress_check.1.y) < 0.2;
+                let plan = if no_progress {
+                    Err(None)
+                } else {
+                    planner.plan(mapper.map(), robot).map_err(Some)
+                };
+                let t2 = Instant::now();
+                planning_times.push((t2 - t1).as_secs_f64());
+                let start = match config.latency {
+                    Latency::Wall => {
+                        let delay = (t2 - t0).as_secs_f64();
+                        recent_delays.push_back(delay);
+                        if recent_delays.len() > 3 {
+                            recent_delays.pop_front();
+                        }
+                        time + delay.max(lead)
+                    }
+                    Latency::None => time,
+                };
+                if let Ok(p) = &plan {
+                    tracing::debug!(
+                        "t = {time:.1} s at ({:.2}, {:.2}): goal ({:.2}, {:.2}), guidance {:.2?}, {} candidates, xi {}, controls {:?}",
+                        robot.x, robot.y, p.local_goal[0], p.local_goal[1], p.guidance, p.candidates, p.information, p.controls
                     );
-                    *failures.entry(name).or_insert(0) += 1;
-                    progress_check = (time, pose);
-                    recovery_schedule(kind, start, pose.theta, away)
                 }
-            };
-            if time - progress_check.0 >= 10.0 {
-                progress_check = (time, pose);
+                let recovered = plan.is_err();
+                let schedule = match plan {
+                    Ok(p) => Schedule {
+                        start,
+                        period: 1.0,
+                        controls: p
+                            .controls
+                            .iter()
+                            .map(|u| UnicycleCommand { v: u.v, w: u.w })
+                            .collect(),
+                    },
+                    Err(failure) => {
+                        recovery_events += 1;
+                        let (name, kind, away) = match &failure {
+                            Some(PlanFailure::StartInCollision { away }) => (
+                                "StartInCollision".to_owned(),
+                                Recovery::BackOff,
+                                Some(*away),
+                            ),
+                            Some(f) => (format!("{f:?}"), f.recovery(), None),
+                            None => ("NoProgress".to_owned(), Recovery::BackOff, None),
+                        };
+                        tracing::info!(
+                            "t = {time:.1} s: {} -> recovery {kind:?}",
+                            failure
+                                .as_ref()
+                                .map_or("no progress for 10 s".to_owned(), PlanFailure::to_string)
+                        );
+                        *failures.entry(name).or_insert(0) += 1;
+                        progress_check = (time, pose);
+                        recovery_schedule(kind, start, robot.theta, away)
+                    }
+                };
+                if time - progress_check.0 >= 10.0 {
+                    progress_check = (time, pose);
+                }
+                pending = Some(schedule);
+                if let Some(reason) = stuck.update(time, pose, recovered) {
+                    tracing::warn!("t = {time:.1} s: {reason}");
+                    ended = reason;
+                    break;
+                }
             }
-            pending = Some(schedule);
-            on_progress(time, mapper.map().len());
+            if !tests.surface.is_empty() && time + 0.5 * timestep >= next_coverage {
+                next_coverage += 10.0;
+                coverage = Some(autonomy::metrics::coverage(
+                    &tests.surface,
+                    &mapper.map().gaussians.means,
+                    crate::evaluate::COVERAGE_RADIUS,
+                ));
+            }
+            on_progress(Progress {
+                time,
+                gaussians: mapper.map().len(),
+                coverage,
+            });
         }
-        world.step(current.at(time))?;
+        let command = match survey.as_mut() {
+            Some(driver) => {
+                let command = driver.command(world.pose());
+                if driver.remaining() == 0 {
+                    ended = String::from("survey complete");
+                    break;
+                }
+                command
+            }
+            None => current.at(time),
+        };
+        world.step(command)?;
         if world.robot_collisions().next().is_some() {
             collision_steps += 1;
         }
         let pose = world.pose();
-        path_length += ((pose.x - last_pose.x).powi(2) + (pose.y - last_pose.y).powi(2)).sqrt();
+        path_length += (pose.x - last_pose.x).hypot(pose.y - last_pose.y);
         last_pose = pose;
+        if (step + 1) % 50 == 0 {
+            path.push(pose);
+        }
     }
+    path.push(world.pose());
     autonomy::ply::write(mapper.map(), &config.out.join("map.ply"))
         .map_err(|e| SimError::Mapping(e.to_string()))?;
     let simulated = world.data().time();
     let final_pose = world.pose();
-    // Evaluate last: it moves the robot to each test pose.
-    let poses = crate::evaluate::sample_test_poses(
+    let evaluation = evaluate(&world, &mut camera, mapper.engine(), mapper.map(), &tests)?;
+    crate::plot::write_trajectory_png(
+        &config.out.join("trajectory.png"),
         &world,
-        [-15.0, -15.0],
-        [15.0, 15.0],
-        config.test_views,
-        config.seed ^ 0x7e57,
-    );
-    let evaluation = crate::evaluate::evaluate(
-        &mut world,
-        &mut camera,
-        mapper.engine(),
+        &path,
         mapper.map(),
-        &poses,
     )?;
     let wall_seconds = wall.elapsed().as_secs_f64();
     let metrics = Metrics {
@@ -372,6 +556,8 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(f64, usize)) 
         mapping: stage(mapping_times),
         planning: stage(planning_times),
         engine: engine_name,
+        ended,
+        peak_memory_bytes: peak_memory_bytes(),
         evaluation,
     };
     crate::dataset::write_json(&config.out.join("metrics.json"), &metrics)?;

@@ -1,20 +1,31 @@
 //! Evaluation on hidden views (DESIGN.md "Evaluation"): test poses sampled uniformly (seeded)
 //! in the world's free space, MuJoCo's render as the ground truth, the map's render compared
-//! with it. PSNR on RGB, depth MAE and RMSE on pixels with ground truth.
+//! with it. PSNR and SSIM on RGB, depth MAE and RMSE on pixels with ground truth, and coverage:
+//! the share of surface points ray-cast (mj_ray) from the test cameras that have a Gaussian
+//! mean within 5 cm. Everything runs on a scratch copy of the world's state, so an episode can
+//! be evaluated while it runs and is not disturbed.
 
 use crate::camera::RgbdCamera;
-use crate::error::Result;
+use crate::error::{Result, SimError};
+use crate::mujoco::Data;
 use crate::robot::Pose2;
 use crate::world::World;
 use autonomy::map::GaussianMap;
-use autonomy::metrics::psnr;
+use autonomy::metrics::{coverage, psnr, ssim};
 use autonomy::splat::Rasteriser;
 use nalgebra::{Point3, Vector3};
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
+use std::sync::Arc;
 
 /// Geom groups the world's visible geoms use (the robot's are group 3).
-const WORLD_GROUPS: u8 = 0b111;
+pub const WORLD_GROUPS: u8 = 0b111;
+
+/// Distance within which a Gaussian mean covers a surface point (DESIGN.md), metres.
+pub const COVERAGE_RADIUS: f32 = 0.05;
+
+/// Every how many pixels (in x and in y) a coverage ray is cast.
+const COVERAGE_PIXEL_STRIDE: u32 = 8;
 
 /// Scores of a map on hidden views.
 #[derive(Debug, Clone, Serialize)]
@@ -23,24 +34,33 @@ pub struct Evaluation {
     pub views: usize,
     /// Mean PSNR, dB.
     pub psnr: f64,
+    /// Mean SSIM (11x11 Gaussian window), in [-1, 1].
+    pub ssim: f64,
     /// Mean absolute depth error on pixels with ground truth, metres.
     pub depth_mae: f64,
     /// Root mean square depth error on pixels with ground truth, metres.
     pub depth_rmse: f64,
+    /// Share of the surface points seen from the test poses with a Gaussian mean within 5 cm.
+    pub coverage: f64,
+    /// Surface points the coverage is measured on.
+    pub surface_points: usize,
 }
 
-/// Whether a robot at (x, y) stands in free space: rays in 16 directions at 0.25 m all hit the
-/// world (so it is inside it) no nearer than `clearance`.
-fn free(world: &World, x: f64, y: f64, clearance: f64) -> bool {
-    (0..16).all(|k| {
-        let a = std::f64::consts::TAU * f64::from(k) / 16.0;
-        let hit = world.data().ray(
-            &Point3::new(x, y, 0.25),
-            &Vector3::new(a.cos(), a.sin(), 0.0),
-            WORLD_GROUPS,
-            Some(world.robot().body),
-        );
-        hit.is_some_and(|h| h.distance >= clearance)
+/// Whether a robot at (x, y) stands in free space: rays in 16 directions at the wheels'
+/// (0.1 m) and the camera's (0.35 m) heights all hit the world (so it is inside it) no nearer
+/// than `clearance`.
+pub fn free(world: &World, x: f64, y: f64, clearance: f64) -> bool {
+    [0.1, 0.35].iter().all(|&z| {
+        (0..16).all(|k| {
+            let a = std::f64::consts::TAU * f64::from(k) / 16.0;
+            let hit = world.data().ray(
+                &Point3::new(x, y, z),
+                &Vector3::new(a.cos(), a.sin(), 0.0),
+                WORLD_GROUPS,
+                Some(world.robot().body),
+            );
+            hit.is_some_and(|h| h.distance >= clearance)
+        })
     })
 }
 
@@ -70,28 +90,88 @@ pub fn sample_test_poses(
     poses
 }
 
-/// Renders the ground truth at each pose (the robot is placed there) and the map from the same
-/// camera; the world's state is changed.
+/// The hidden test set of a world: poses and the surface points their cameras see.
+#[derive(Debug, Clone)]
+pub struct TestSet {
+    /// Robot poses the map is rendered from.
+    pub poses: Vec<Pose2>,
+    /// Ground-truth surface points within the sensor's range of the test cameras.
+    pub surface: Vec<[f32; 3]>,
+}
+
+impl TestSet {
+    /// Samples `count` test poses (seeded) over the default +-15 m square and casts coverage
+    /// rays from their cameras, every 8th pixel, up to `max_range`.
+    pub fn sample(
+        world: &World,
+        camera: &RgbdCamera,
+        count: usize,
+        seed: u64,
+        max_range: f64,
+    ) -> Result<Self> {
+        let poses = sample_test_poses(world, [-15.0, -15.0], [15.0, 15.0], count, seed);
+        let mut data = scratch(world)?;
+        let k = camera.intrinsics();
+        let mut surface = Vec::new();
+        for pose in &poses {
+            world.robot().place(&mut data, *pose);
+            let pose = camera.world_from_camera(&data);
+            for v in (0..k.height).step_by(COVERAGE_PIXEL_STRIDE as usize) {
+                for u in (0..k.width).step_by(COVERAGE_PIXEL_STRIDE as usize) {
+                    let ray = k.ray(f64::from(u), f64::from(v));
+                    let direction = pose.rotation * (ray / ray.norm());
+                    let origin = Point3::from(pose.translation.vector);
+                    let Some(hit) =
+                        data.ray(&origin, &direction, WORLD_GROUPS, Some(world.robot().body))
+                    else {
+                        continue;
+                    };
+                    if hit.distance <= max_range {
+                        let p = origin + direction * hit.distance;
+                        surface.push([p.x as f32, p.y as f32, p.z as f32]);
+                    }
+                }
+            }
+        }
+        Ok(TestSet { poses, surface })
+    }
+}
+
+/// A fresh state of the world's model, for rendering and ray casting away from the episode.
+fn scratch(world: &World) -> Result<Data> {
+    let mut data = Data::new(Arc::clone(world.model()))?;
+    data.forward();
+    Ok(data)
+}
+
+/// Renders the ground truth at each test pose (on a scratch state: the world is untouched)
+/// and the map from the same camera, and scores the map.
 pub fn evaluate(
-    world: &mut World,
+    world: &World,
     camera: &mut RgbdCamera,
     engine: &Rasteriser,
     map: &GaussianMap,
-    poses: &[Pose2],
+    tests: &TestSet,
 ) -> Result<Evaluation> {
+    let mut data = scratch(world)?;
     let mut frame = camera.blank_frame();
-    let (mut psnr_sum, mut abs_sum, mut sq_sum, mut pixels) = (0.0, 0.0, 0.0, 0usize);
-    for pose in poses {
-        let robot = world.robot().clone();
-        robot.place(world.data_mut(), *pose);
-        world.data_mut().forward();
-        camera.capture_into(world.data(), &mut frame)?;
+    let (w, h) = (
+        camera.intrinsics().width as usize,
+        camera.intrinsics().height as usize,
+    );
+    let (mut psnr_sum, mut ssim_sum) = (0.0, 0.0);
+    let (mut abs_sum, mut sq_sum, mut pixels) = (0.0, 0.0, 0usize);
+    for pose in &tests.poses {
+        world.robot().place(&mut data, *pose);
+        camera.capture_into(&data, &mut frame)?;
         let rendered = engine
             .render(&map.gaussians, &frame.camera)
-            .map_err(|e| crate::error::SimError::Mapping(e.to_string()))?;
+            .map_err(|e| SimError::Mapping(e.to_string()))?;
         let truth: Vec<f32> = frame.rgb.iter().map(|c| f32::from(*c) / 255.0).collect();
-        psnr_sum += psnr(&rendered.images().colour, &truth);
-        for (r, t) in rendered.images().depth.iter().zip(&frame.depth) {
+        let images = rendered.images();
+        psnr_sum += psnr(&images.colour, &truth);
+        ssim_sum += ssim(&images.colour, &truth, w, h);
+        for (r, t) in images.depth.iter().zip(&frame.depth) {
             if *t > 0.0 {
                 let e = f64::from(r - t);
                 abs_sum += e.abs();
@@ -100,12 +180,15 @@ pub fn evaluate(
             }
         }
     }
-    let n = poses.len().max(1) as f64;
+    let n = tests.poses.len().max(1) as f64;
     let p = pixels.max(1) as f64;
     Ok(Evaluation {
-        views: poses.len(),
+        views: tests.poses.len(),
         psnr: psnr_sum / n,
+        ssim: ssim_sum / n,
         depth_mae: abs_sum / p,
         depth_rmse: (sq_sum / p).sqrt(),
+        coverage: coverage(&tests.surface, &map.gaussians.means, COVERAGE_RADIUS),
+        surface_points: tests.surface.len(),
     })
 }

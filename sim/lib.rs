@@ -11,8 +11,10 @@ pub mod episode;
 pub mod error;
 pub mod evaluate;
 pub mod mujoco;
+pub mod plot;
 pub mod record;
 pub mod robot;
+pub mod survey;
 pub mod world;
 
 pub use error::{Result, SimError};

@@ -71,7 +71,8 @@ struct RunArgs {
     /// MJCF world that includes the robot (models/unicycle.xml).
     #[arg(long, default_value = "worlds/room.xml")]
     world: PathBuf,
-    /// Exploration planner (rtguide; frontier, fisher and survey are not built yet).
+    /// Planner: rtguide (information-driven, on the map alone) or survey (a lawn-mower over
+    /// the world's free space, which it knows: the upper bound to compare with).
     #[arg(long, default_value = "rtguide")]
     planner: String,
     /// Simulated seconds to explore.
@@ -359,12 +360,6 @@ fn print_map_bench(
 
 fn run_run(args: RunArgs) -> Result<()> {
     use splatloop::episode::{run_episode, Latency, RunConfig};
-    if args.planner != "rtguide" {
-        anyhow::bail!(
-            "planner {:?} is not built yet; use --planner rtguide",
-            args.planner
-        );
-    }
     let latency = match args.latency.as_str() {
         "wall" => Latency::Wall,
         "none" => Latency::None,
@@ -378,6 +373,7 @@ fn run_run(args: RunArgs) -> Result<()> {
         think_period: 1.0,
         iterations: args.iterations,
         latency,
+        planner: args.planner.parse().map_err(anyhow::Error::msg)?,
         sensor: SensorConfig {
             width: args.width,
             height: args.height,
@@ -396,9 +392,15 @@ fn run_run(args: RunArgs) -> Result<()> {
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     let budget = config.budget;
-    let metrics = run_episode(&config, &mut |t, gaussians| {
-        bar.set_position((t * 1000.0) as u64);
-        bar.set_message(format!("{t:.0}/{budget:.0} sim s, {gaussians} Gaussians"));
+    let metrics = run_episode(&config, &mut |p| {
+        bar.set_position((p.time * 1000.0) as u64);
+        let coverage = p
+            .coverage
+            .map_or(String::new(), |c| format!(", coverage {:.0}%", 100.0 * c));
+        bar.set_message(format!(
+            "{:.0}/{budget:.0} sim s, {} Gaussians{coverage}",
+            p.time, p.gaussians
+        ));
     })
     .with_context(|| format!("exploring {} failed", config.world.display()))?;
     bar.finish_and_clear();
@@ -414,14 +416,30 @@ fn run_run(args: RunArgs) -> Result<()> {
         metrics.recovery_events,
         config.out.display()
     );
-    println!(
-        "hidden views: {}, PSNR {:.2} dB, depth MAE {:.3} m, RMSE {:.3} m",
-        metrics.evaluation.views,
-        metrics.evaluation.psnr,
-        metrics.evaluation.depth_mae,
-        metrics.evaluation.depth_rmse
-    );
+    print_evaluation(&metrics.evaluation);
+    if metrics.ended != "budget" {
+        println!("ended: {}", metrics.ended);
+    }
     Ok(())
+}
+
+fn print_evaluation(e: &splatloop::evaluate::Evaluation) {
+    if e.views == 0 {
+        println!(
+            "hidden views: none (asked for none, or no pose with 0.4 m of clearance was found)"
+        );
+        return;
+    }
+    println!(
+        "hidden views: {}, PSNR {:.2} dB, SSIM {:.3}, depth MAE {:.3} m, RMSE {:.3} m, coverage {:.1}% of {} surface points",
+        e.views,
+        e.psnr,
+        e.ssim,
+        e.depth_mae,
+        e.depth_rmse,
+        100.0 * e.coverage,
+        e.surface_points
+    );
 }
 
 fn run_record(args: RecordArgs) -> Result<()> {

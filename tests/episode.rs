@@ -1,23 +1,27 @@
-//! The closed loop on worlds/room.xml: a smoke episode that must not collide and must move,
-//! run twice with the world waiting for the autonomy (`Latency::None`) so the two
-//! trajectories must be identical.
+//! The closed loop: the smoke episode on worlds/room.xml (no collisions, coverage and PSNR
+//! above measured floors, the same trajectory twice), the survey's map against the same map
+//! with half its Gaussians gone, the test poses against MuJoCo's contacts, and a boxed-in
+//! robot that must end its episode with a recovery and a reason.
 
-use crate::support::repo_path;
+use crate::support::{fixture, repo_path};
+use autonomy::splat::{EngineChoice, Rasteriser};
 use splatloop::camera::SensorConfig;
-use splatloop::episode::{run_episode, Latency, RunConfig};
+use splatloop::episode::{run_episode, Latency, PlannerKind, RunConfig};
+use splatloop::evaluate::{evaluate, TestSet};
 
-fn config(out: std::path::PathBuf) -> RunConfig {
+fn config(world: &str, planner: PlannerKind, budget: f64, out: std::path::PathBuf) -> RunConfig {
     RunConfig {
-        world: repo_path("worlds/room.xml"),
-        budget: 30.0,
+        world: repo_path(world),
+        budget,
         seed: 3,
         camera_rate: 5.0,
         think_period: 1.0,
         iterations: 10,
         latency: Latency::None,
+        planner,
         sensor: SensorConfig::default(),
         test_views: 20,
-        engine: autonomy::splat::EngineChoice::Cpu,
+        engine: EngineChoice::Cpu,
         overwrite: false,
         out,
     }
@@ -26,19 +30,39 @@ fn config(out: std::path::PathBuf) -> RunConfig {
 #[test]
 fn smoke_episode_explores_without_collisions_and_repeats_exactly() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let first = run_episode(&config(dir.path().join("a")), &mut |_, _| {}).expect("episode");
-    let second = run_episode(&config(dir.path().join("b")), &mut |_, _| {}).expect("episode");
+    let run = |name: &str| {
+        let config = config(
+            "worlds/room.xml",
+            PlannerKind::RtGuide,
+            60.0,
+            dir.path().join(name),
+        );
+        run_episode(&config, &mut |_| {}).expect("episode")
+    };
+    let (first, second) = (run("a"), run("b"));
     eprintln!("{first:?}");
-    // Measured on the CI machine (2026-11-25): 0 collision steps, 1.80 m driven, 98264
-    // Gaussians; the thresholds leave room for other machines' float rounding.
     assert_eq!(first.collision_steps, 0);
+    assert_eq!(first.ended, "budget");
+    assert_eq!(first.frames, 300);
+    // Measured on the CI machine (2026-11-25, 60 s, seed 3): see the numbers beside each floor;
+    // the floors leave room for other machines' float rounding.
     assert!(
-        first.path_length > 1.0,
+        first.path_length > 2.0,
         "drove only {:.2} m",
         first.path_length
     );
     assert!(first.gaussians > 50_000, "{} Gaussians", first.gaussians);
-    assert_eq!(first.frames, 150);
+    assert_eq!(first.evaluation.views, 20);
+    assert!(
+        first.evaluation.psnr > 14.0,
+        "PSNR {:.2} dB",
+        first.evaluation.psnr
+    );
+    assert!(
+        first.evaluation.coverage > 0.5,
+        "coverage {:.3}",
+        first.evaluation.coverage
+    );
     let read = |d: &str| {
         std::fs::read_to_string(dir.path().join(d).join("groundtruth.txt")).expect("trajectory")
     };
@@ -48,26 +72,98 @@ fn smoke_episode_explores_without_collisions_and_repeats_exactly() {
         "the same inputs gave different trajectories"
     );
     assert_eq!(first.path_length, second.path_length);
-    assert_eq!(first.evaluation.views, 20);
-    // Measured on the CI machine: 15.0 dB on 20 hidden views after 30 s (the robot has seen
-    // only part of the room by then).
-    assert!(
-        first.evaluation.psnr > 13.0,
-        "PSNR {:.2} dB",
-        first.evaluation.psnr
-    );
-    // The test poses are in free space: at least 0.4 m from every wall and obstacle.
-    let world =
-        splatloop::world::World::load(&repo_path("worlds/room.xml"), &SensorConfig::default())
-            .expect("world");
-    for pose in splatloop::evaluate::sample_test_poses(&world, [-15.0, -15.0], [15.0, 15.0], 20, 5)
-    {
+    // Everything the episode folder promises is there; the map reads back.
+    for file in [
+        "metrics.json",
+        "episode.json",
+        "trajectory.png",
+        "camera.json",
+        "rgb.txt",
+    ] {
+        assert!(
+            dir.path().join("a").join(file).is_file(),
+            "{file} is missing"
+        );
+    }
+    let map = autonomy::ply::read(&dir.path().join("a").join("map.ply")).expect("map.ply");
+    assert_eq!(map.len(), first.gaussians);
+}
+
+#[test]
+fn survey_map_scores_better_than_half_of_it_and_test_poses_are_free() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let survey = run_episode(
+        &config(
+            "worlds/room.xml",
+            PlannerKind::Survey,
+            250.0,
+            dir.path().join("survey"),
+        ),
+        &mut |_| {},
+    )
+    .expect("survey");
+    eprintln!("{survey:?}");
+    assert_eq!(survey.ended, "survey complete");
+    assert_eq!(survey.collision_steps, 0);
+    let map = autonomy::ply::read(&dir.path().join("survey").join("map.ply")).expect("map.ply");
+    let mut half = map.clone();
+    let keep: Vec<bool> = (0..half.len()).map(|i| i % 2 == 0).collect();
+    half.retain(&keep);
+
+    let sensor = SensorConfig::default();
+    let mut world =
+        splatloop::world::World::load(&repo_path("worlds/room.xml"), &sensor).expect("world");
+    let gl = splatloop::egl::EglContext::new().expect("EGL");
+    let mut camera = world.make_camera(&sensor, 1, &gl).expect("camera");
+    let tests = TestSet::sample(&world, &camera, 15, 99, sensor.max_range).expect("test set");
+    assert_eq!(tests.poses.len(), 15);
+    let engine = Rasteriser::select(EngineChoice::Cpu);
+    let full = evaluate(&world, &mut camera, &engine, &map, &tests).expect("evaluate");
+    let halved = evaluate(&world, &mut camera, &engine, &half, &tests).expect("evaluate");
+    eprintln!("full {full:?}\nhalf {halved:?}");
+    assert!(full.psnr > halved.psnr + 0.5, "{full:?} vs {halved:?}");
+    assert!(full.ssim > halved.ssim, "{full:?} vs {halved:?}");
+    assert!(full.coverage > halved.coverage, "{full:?} vs {halved:?}");
+    // The survey sees nearly all of the room (measured: 97%).
+    assert!(full.coverage > 0.9, "survey coverage {:.3}", full.coverage);
+
+    // Test poses lie in free space: MuJoCo finds no contact between the robot and the world
+    // at any of them, and all are inside the room's walls (|x|, |y| < 3 m).
+    for pose in &tests.poses {
         assert!(
             pose.x.abs() < 3.0 && pose.y.abs() < 3.0,
             "{pose:?} is outside the room"
         );
+        let robot = world.robot().clone();
+        robot.place(world.data_mut(), *pose);
+        let contacts: Vec<_> = world.robot_collisions().collect();
+        assert!(
+            contacts.is_empty(),
+            "{pose:?} touches the world: {contacts:?}"
+        );
     }
-    // The map is written and reads back.
-    let map = autonomy::ply::read(&dir.path().join("a").join("map.ply")).expect("map.ply");
-    assert_eq!(map.len(), first.gaussians);
+}
+
+#[test]
+fn a_boxed_in_robot_ends_with_a_recovery_and_a_reason() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut config = config("", PlannerKind::RtGuide, 120.0, dir.path().join("boxed"));
+    config.world = fixture("boxed_in.xml");
+    config.test_views = 0;
+    let metrics = run_episode(&config, &mut |_| {}).expect("episode");
+    assert!(metrics.recovery_events >= 1, "{metrics:?}");
+    assert!(
+        metrics.ended.starts_with("stuck"),
+        "ended: {}",
+        metrics.ended
+    );
+    assert!(
+        metrics.simulated_seconds < 60.0,
+        "took {} s to give up",
+        metrics.simulated_seconds
+    );
+    assert!(metrics.path_length < 0.3);
+    // Nothing is lost: the folder is complete.
+    assert!(dir.path().join("boxed").join("metrics.json").is_file());
+    assert!(dir.path().join("boxed").join("map.ply").is_file());
 }

@@ -1,4 +1,7 @@
-//! Image quality metrics (RT-GuIDE V-C): PSNR on RGB in [0, 1], depth errors.
+//! Map quality metrics (RT-GuIDE V-C): PSNR and SSIM on RGB in [0, 1], depth errors, and
+//! coverage of ground-truth surface points.
+
+use std::collections::HashMap;
 
 /// Peak signal-to-noise ratio in dB of two RGB images in [0, 1] (values are clamped first).
 pub fn psnr(a: &[f32], b: &[f32]) -> f64 {
@@ -29,4 +32,64 @@ pub fn depth_mae(rendered: &[f32], truth: &[f32]) -> f64 {
     } else {
         sum / n as f64
     }
+}
+
+/// Mean SSIM (11x11 Gaussian window, sigma 1.5) over the three channels of two interleaved
+/// RGB images in [0, 1] of `width` x `height` (values are clamped first), as the mapping loss
+/// measures it.
+pub fn ssim(a: &[f32], b: &[f32], width: usize, height: usize) -> f64 {
+    let n = width * height;
+    if n == 0 || a.len() < 3 * n || b.len() < 3 * n {
+        return 0.0;
+    }
+    let mut unused = vec![0.0f64; n];
+    (0..3)
+        .map(|c| {
+            let x: Vec<f64> = (0..n)
+                .map(|p| f64::from(a[3 * p + c].clamp(0.0, 1.0)))
+                .collect();
+            let y: Vec<f64> = (0..n)
+                .map(|p| f64::from(b[3 * p + c].clamp(0.0, 1.0)))
+                .collect();
+            crate::ssim::ssim_channel(&x, &y, width, height, 0.0, &mut unused)
+        })
+        .sum::<f64>()
+        / 3.0
+}
+
+/// Fraction of `surface` points with a Gaussian mean within `radius` (DESIGN.md's coverage,
+/// radius 5 cm). Means are filed in a hash of cubes of side `radius`, so each point looks at
+/// 27 cells: linear in points plus means.
+pub fn coverage(surface: &[[f32; 3]], means: &[[f32; 3]], radius: f32) -> f64 {
+    if surface.is_empty() {
+        return 0.0;
+    }
+    let cell = |p: &[f32; 3]| p.map(|v| (v / radius).floor() as i32);
+    let mut grid: HashMap<[i32; 3], Vec<u32>> = HashMap::new();
+    for (i, m) in means.iter().enumerate() {
+        if m.iter().all(|v| v.is_finite()) {
+            grid.entry(cell(m)).or_default().push(i as u32);
+        }
+    }
+    let r2 = radius * radius;
+    let covered = surface
+        .iter()
+        .filter(|p| {
+            let c = cell(p);
+            (-1..=1).any(|dx| {
+                (-1..=1).any(|dy| {
+                    (-1..=1).any(|dz| {
+                        grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz])
+                            .is_some_and(|ids| {
+                                ids.iter().any(|&i| {
+                                    let m = &means[i as usize];
+                                    (0..3).map(|k| (m[k] - p[k]).powi(2)).sum::<f32>() <= r2
+                                })
+                            })
+                    })
+                })
+            })
+        })
+        .count();
+    covered as f64 / surface.len() as f64
 }

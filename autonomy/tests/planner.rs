@@ -317,7 +317,7 @@ fn dijkstra_and_the_omega_over_e_to_the_d_choice_on_a_hand_built_graph() {
     let close = g.add_viewpoint([0.0, -1.0], 0.8, 0.0); // 0.8 / e = 0.29
     let poor = g.add_viewpoint([-1.0, 0.0], 0.4, 0.0); // 0.4 / e = 0.15
     let pick = |previous| {
-        g.best_viewpoint_keeping(a, 0.0, previous)
+        g.best_viewpoint_keeping(a, 0.0, previous, 0.5)
             .expect("reachable")
             .0
     };

@@ -223,20 +223,22 @@ impl TopologicalGraph {
         source: usize,
         min_distance: f64,
     ) -> Option<(usize, Vec<usize>, f64)> {
-        self.best_viewpoint_keeping(source, min_distance, None)
+        self.best_viewpoint_keeping(source, min_distance, None, 1.0)
     }
 
     /// [`TopologicalGraph::best_viewpoint`], except that a viewpoint within
     /// `KEEP_RADIUS` of `previous` (the last plan's target) wins while it scores at least
-    /// `KEEP_FRACTION` of the best, so two similar viewpoints do not make the robot dither.
+    /// `keep_fraction` of the best. Region utilities jump by several times from one mapping
+    /// step to the next (a region just looked at has Gaussians that just moved), so without
+    /// this the robot turns back and forth between two targets and never leaves.
     pub fn best_viewpoint_keeping(
         &self,
         source: usize,
         min_distance: f64,
         previous: Option<[f64; 2]>,
+        keep_fraction: f64,
     ) -> Option<(usize, Vec<usize>, f64)> {
         const KEEP_RADIUS: f64 = 0.5;
-        const KEEP_FRACTION: f64 = 0.5;
         let paths = self.dijkstra(source);
         let scores: Vec<(usize, f64)> = self
             .nodes
@@ -259,7 +261,7 @@ impl TopologicalGraph {
             let kept = scores.iter().copied().find(|(i, s)| {
                 let p = self.nodes[*i].position;
                 (p[0] - target[0]).hypot(p[1] - target[1]) < KEEP_RADIUS
-                    && *s >= KEEP_FRACTION * score
+                    && *s >= keep_fraction * score
             });
             if let Some((i, s)) = kept {
                 (best, score) = (i, s);

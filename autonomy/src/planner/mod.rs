@@ -32,6 +32,12 @@ pub struct PlannerConfig {
     /// Viewpoints nearer than this (through the graph) count as reached and are not chosen,
     /// metres; without it Omega / e^d keeps choosing a viewpoint next to the robot.
     pub min_viewpoint_distance: f64,
+    /// The last target is kept while it scores at least this share of the best viewpoint.
+    pub keep_target_fraction: f64,
+    /// ... and for at most this many plans in a row, so an unreachable one is given up.
+    pub keep_target_plans: usize,
+    /// Utility factor of viewpoints within `min_viewpoint_distance` of a reached target.
+    pub visited_utility_factor: f64,
     /// The A*.
     pub search: SearchConfig,
     /// The robot for collision checks.
@@ -53,6 +59,9 @@ impl Default for PlannerConfig {
             odometry_spacing: 1.0,
             viewpoints_per_region: 8,
             min_viewpoint_distance: 1.0,
+            keep_target_fraction: 0.1,
+            keep_target_plans: 15,
+            visited_utility_factor: 0.1,
             search: SearchConfig::default(),
             collision: CollisionModel::default(),
             mount: CameraMount::default(),
@@ -146,6 +155,9 @@ pub struct RtGuidePlanner {
     /// The viewpoint the last plan headed for: kept while it scores at least half the best,
     /// so two similar viewpoints do not make the robot dither between them.
     target: Option<[f64; 2]>,
+    target_plans: usize,
+    /// Targets the robot has reached.
+    visited: Vec<[f64; 2]>,
     counter: Option<ViewCounter>,
 }
 
@@ -165,6 +177,8 @@ impl RtGuidePlanner {
             obstacles: Obstacles::default(),
             counter: None,
             target: None,
+            target_plans: 0,
+            visited: Vec::new(),
         }
     }
 
@@ -223,6 +237,14 @@ impl RtGuidePlanner {
             }
             return Err(PlanFailure::StartInCollision { away: ay.atan2(ax) });
         }
+        // A reached target is remembered: looking at a region makes its Gaussians move, so its
+        // utility does not fall, and without this the robot shuttles between two viewpoints.
+        if let Some(t) = self.target {
+            if (t[0] - robot.x).hypot(t[1] - robot.y) < cfg.min_viewpoint_distance {
+                self.visited.push(t);
+                self.target = None;
+            }
+        }
         // Viewpoints first: clearing them renumbers the nodes after them.
         self.graph.clear_viewpoints();
         let source = self.graph.visit([robot.x, robot.y], cfg.odometry_spacing);
@@ -250,18 +272,36 @@ impl RtGuidePlanner {
                 // A viewpoint the robot stands at is reached, not a goal.
                 let near = (p[0] - robot.x).hypot(p[1] - robot.y) < cfg.min_viewpoint_distance;
                 if !hit && !near {
-                    self.graph.add_viewpoint(p, region.omega, heading);
+                    let seen = self
+                        .visited
+                        .iter()
+                        .any(|v| (v[0] - p[0]).hypot(v[1] - p[1]) < cfg.min_viewpoint_distance);
+                    let omega = if seen {
+                        region.omega * cfg.visited_utility_factor
+                    } else {
+                        region.omega
+                    };
+                    self.graph.add_viewpoint(p, omega, heading);
                 }
             }
         }
-        let previous = self
-            .target
-            .filter(|t| (t[0] - robot.x).hypot(t[1] - robot.y) >= cfg.min_viewpoint_distance);
+        let previous = self.target.filter(|t| {
+            (t[0] - robot.x).hypot(t[1] - robot.y) >= cfg.min_viewpoint_distance
+                && self.target_plans < cfg.keep_target_plans
+        });
         let (best, path, _) = self
             .graph
-            .best_viewpoint_keeping(source, cfg.min_viewpoint_distance, previous)
+            .best_viewpoint_keeping(
+                source,
+                cfg.min_viewpoint_distance,
+                previous,
+                cfg.keep_target_fraction,
+            )
             .ok_or(PlanFailure::GoalUnreachable)?;
-        self.target = Some(self.graph.nodes[best].position);
+        let target = self.graph.nodes[best].position;
+        let same = previous.is_some_and(|p| (p[0] - target[0]).hypot(p[1] - target[1]) < 0.5);
+        self.target_plans = if same { self.target_plans + 1 } else { 1 };
+        self.target = Some(target);
         let mut guidance = vec![[robot.x, robot.y]];
         guidance.extend(path.iter().map(|i| self.graph.nodes[*i].position));
         let goal = local_goal(&guidance, cfg.search.horizon).unwrap_or([robot.x, robot.y]);

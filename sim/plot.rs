@@ -1,0 +1,181 @@
+//! `trajectory.png`: the episode from above. The world's footprint comes from downward mj_ray
+//! casts (floor light, obstacles darker the taller they are, outside white); the map's
+//! Gaussians above the floor are dots coloured by uncertainty rank (blue low, through green
+//! and yellow, red high); the path is a dark line from a green start to a red end.
+
+use crate::error::{Result, SimError};
+use crate::evaluate::WORLD_GROUPS;
+use crate::robot::Pose2;
+use crate::world::World;
+use autonomy::map::GaussianMap;
+use nalgebra::{Point3, Vector3};
+use std::path::Path;
+
+/// Pixels per metre at most, and the longest side of the picture in pixels.
+const MAX_SCALE: f64 = 60.0;
+const MAX_SIDE: f64 = 1200.0;
+
+/// An RGB canvas over a rectangle of the floor; y (north) points up the picture.
+struct Canvas {
+    lo: [f64; 2],
+    scale: f64,
+    width: usize,
+    height: usize,
+    rgb: Vec<u8>,
+}
+
+impl Canvas {
+    fn pixel_of(&self, x: f64, y: f64) -> (f64, f64) {
+        (
+            (x - self.lo[0]) * self.scale,
+            self.height as f64 - (y - self.lo[1]) * self.scale,
+        )
+    }
+
+    fn world_of(&self, px: usize, py: usize) -> (f64, f64) {
+        (
+            self.lo[0] + (px as f64 + 0.5) / self.scale,
+            self.lo[1] + (self.height as f64 - py as f64 - 0.5) / self.scale,
+        )
+    }
+
+    fn put(&mut self, px: f64, py: f64, colour: [u8; 3]) {
+        if px >= 0.0 && py >= 0.0 && (px as usize) < self.width && (py as usize) < self.height {
+            let i = 3 * (py as usize * self.width + px as usize);
+            self.rgb[i..i + 3].copy_from_slice(&colour);
+        }
+    }
+
+    fn disc(&mut self, px: f64, py: f64, radius: f64, colour: [u8; 3]) {
+        let r = radius.ceil() as i64;
+        for dy in -r..=r {
+            for dx in -r..=r {
+                if ((dx * dx + dy * dy) as f64) <= radius * radius {
+                    self.put(px + dx as f64, py + dy as f64, colour);
+                }
+            }
+        }
+    }
+
+    fn line(&mut self, a: (f64, f64), b: (f64, f64), radius: f64, colour: [u8; 3]) {
+        let steps = ((b.0 - a.0).hypot(b.1 - a.1) * 2.0).ceil().max(1.0) as usize;
+        for k in 0..=steps {
+            let t = k as f64 / steps as f64;
+            self.disc(a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1), radius, colour);
+        }
+    }
+}
+
+/// Blue -> green -> yellow -> red for t in [0, 1].
+fn ramp(t: f64) -> [u8; 3] {
+    let stops = [
+        [40.0, 70.0, 200.0],
+        [40.0, 170.0, 90.0],
+        [240.0, 210.0, 40.0],
+        [210.0, 40.0, 40.0],
+    ];
+    let x = t.clamp(0.0, 1.0) * 3.0;
+    let k = (x.floor() as usize).min(2);
+    let f = x - k as f64;
+    std::array::from_fn(|c| (stops[k][c] + f * (stops[k + 1][c] - stops[k][c])) as u8)
+}
+
+/// Draws the world's footprint, the map and the path, and writes the PNG.
+pub fn write_trajectory_png(
+    path_png: &Path,
+    world: &World,
+    path: &[Pose2],
+    map: &GaussianMap,
+) -> Result<()> {
+    // Extent: the path and the map above the floor, with a margin.
+    let mut lo = [f64::INFINITY; 2];
+    let mut hi = [f64::NEG_INFINITY; 2];
+    let mut grow = |x: f64, y: f64| {
+        if x.is_finite() && y.is_finite() {
+            lo = [lo[0].min(x), lo[1].min(y)];
+            hi = [hi[0].max(x), hi[1].max(y)];
+        }
+    };
+    for p in path {
+        grow(p.x, p.y);
+    }
+    for m in &map.gaussians.means {
+        if m[2] > 0.05 {
+            grow(f64::from(m[0]), f64::from(m[1]));
+        }
+    }
+    if !lo[0].is_finite() {
+        lo = [-1.0, -1.0];
+        hi = [1.0, 1.0];
+    }
+    let lo = [lo[0].max(-50.0) - 0.5, lo[1].max(-50.0) - 0.5];
+    let hi = [hi[0].min(50.0) + 0.5, hi[1].min(50.0) + 0.5];
+    let scale = MAX_SCALE.min(MAX_SIDE / (hi[0] - lo[0]).max(hi[1] - lo[1]));
+    let (width, height) = (
+        ((hi[0] - lo[0]) * scale).ceil() as usize,
+        ((hi[1] - lo[1]) * scale).ceil() as usize,
+    );
+    let mut canvas = Canvas {
+        lo,
+        scale,
+        width,
+        height,
+        rgb: vec![255; 3 * width * height],
+    };
+    // The footprint: what a ray straight down from 10 m hits first.
+    let down = Vector3::new(0.0, 0.0, -1.0);
+    for py in 0..height {
+        for px in 0..width {
+            let (x, y) = canvas.world_of(px, py);
+            let hit = world.data().ray(
+                &Point3::new(x, y, 10.0),
+                &down,
+                WORLD_GROUPS,
+                Some(world.robot().body),
+            );
+            if let Some(hit) = hit {
+                let z = 10.0 - hit.distance;
+                let shade = if z < 0.02 {
+                    [236, 232, 222]
+                } else {
+                    let g = (170.0 - 50.0 * z.min(2.5)) as u8;
+                    [g, g, g]
+                };
+                canvas.put(px as f64, py as f64, shade);
+            }
+        }
+    }
+    // Gaussians above the floor, by uncertainty rank, lowest first so high ones show.
+    let mut order: Vec<usize> = (0..map.len())
+        .filter(|&i| map.gaussians.means[i][2] > 0.05 && map.uncertainty[i].is_finite())
+        .collect();
+    order.sort_by(|&a, &b| map.uncertainty[a].total_cmp(&map.uncertainty[b]));
+    let n = order.len().max(2) - 1;
+    for (rank, &i) in order.iter().enumerate() {
+        let m = map.gaussians.means[i];
+        let (px, py) = canvas.pixel_of(f64::from(m[0]), f64::from(m[1]));
+        canvas.disc(px, py, 1.0, ramp(rank as f64 / n as f64));
+    }
+    // The path.
+    let points: Vec<(f64, f64)> = path.iter().map(|p| canvas.pixel_of(p.x, p.y)).collect();
+    for pair in points.windows(2) {
+        canvas.line(pair[0], pair[1], 1.2, [30, 30, 60]);
+    }
+    if let (Some(first), Some(last)) = (points.first(), points.last()) {
+        canvas.disc(first.0, first.1, 5.0, [30, 160, 60]);
+        canvas.disc(last.0, last.1, 5.0, [200, 30, 30]);
+    }
+    let (w, h) = (
+        u32::try_from(width).map_err(|_| too_big(path_png))?,
+        u32::try_from(height).map_err(|_| too_big(path_png))?,
+    );
+    crate::dataset::write_rgb_png(path_png, w, h, &canvas.rgb)
+}
+
+fn too_big(path: &Path) -> SimError {
+    SimError::io(
+        "cannot write",
+        path,
+        std::io::Error::other("the picture is too large"),
+    )
+}
