@@ -314,6 +314,12 @@ pub fn peak_memory_bytes() -> u64 {
         .map_or(0, |kb| kb * 1024)
 }
 
+/// The seed of an episode's hidden test set: derived from the episode's, so `splatloop eval`
+/// with the same seed rebuilds the same set.
+pub fn test_seed(seed: u64) -> u64 {
+    seed ^ 0x7e57
+}
+
 /// The robot's path: planar poses every 0.1 simulated seconds.
 pub type Path2 = Vec<Pose2>;
 
@@ -362,7 +368,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
         &world,
         &camera,
         config.test_views,
-        config.seed ^ 0x7e57,
+        test_seed(config.seed),
         config.sensor.max_range,
     )?;
 

@@ -11,6 +11,7 @@ pub mod episode;
 pub mod error;
 pub mod evaluate;
 pub mod mujoco;
+pub mod novel_view;
 pub mod plot;
 pub mod record;
 pub mod robot;

@@ -28,6 +28,12 @@ enum Command {
     Run(RunArgs),
     /// Drive the robot open-loop through a world and write an RGB-D dataset with exact poses.
     Record(RecordArgs),
+    /// Score a saved map on hidden views of a world (PSNR, SSIM, depth errors, coverage); with
+    /// an episode's seed and camera size the test set is that episode's.
+    Eval(EvalArgs),
+    /// Render a saved map's RGB and depth at the poses of a TUM groundtruth.txt, with the
+    /// intrinsics of a camera.json, into a new dataset folder.
+    Render(RenderArgs),
     /// Measure performance and print a table.
     Bench {
         /// What to measure.
@@ -112,6 +118,56 @@ struct RunArgs {
 }
 
 #[derive(clap::Args)]
+struct EvalArgs {
+    /// The map (map.ply of an episode, or any 3DGS PLY).
+    #[arg(long)]
+    map: PathBuf,
+    /// MJCF world the map is of.
+    #[arg(long, default_value = "worlds/room.xml")]
+    world: PathBuf,
+    /// Hidden test views.
+    #[arg(long, default_value_t = 100)]
+    test_views: usize,
+    /// Seed of the test set (the episode's --seed gives the episode's set).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Splat engine: auto, cpu or gpu.
+    #[arg(long, default_value = "auto")]
+    engine: String,
+    /// Image width, pixels.
+    #[arg(long, default_value_t = 320)]
+    width: u32,
+    /// Image height, pixels.
+    #[arg(long, default_value_t = 240)]
+    height: u32,
+    /// Also write the scores to this JSON file.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// The map (map.ply of an episode, or any 3DGS PLY).
+    #[arg(long)]
+    map: PathBuf,
+    /// TUM trajectory (`timestamp tx ty tz qx qy qz qw`, world_from_camera, optical frame).
+    #[arg(long)]
+    poses: PathBuf,
+    /// camera.json with the intrinsics; default: the one beside --poses.
+    #[arg(long)]
+    camera: Option<PathBuf>,
+    /// Output folder (must be new or empty).
+    #[arg(long, default_value = "runs/render")]
+    out: PathBuf,
+    /// Replace the output folder if it holds an earlier dataset.
+    #[arg(long)]
+    overwrite: bool,
+    /// Splat engine: auto, cpu or gpu.
+    #[arg(long, default_value = "auto")]
+    engine: String,
+}
+
+#[derive(clap::Args)]
 struct RecordArgs {
     /// MJCF world that includes the robot (models/unicycle.xml).
     #[arg(long, default_value = "worlds/room.xml")]
@@ -185,6 +241,8 @@ fn run(command: Command) -> Result<()> {
     match command {
         Command::Record(args) => run_record(args),
         Command::Run(args) => run_run(args),
+        Command::Eval(args) => run_eval(args),
+        Command::Render(args) => run_render(args),
         Command::Bench {
             what,
             world,
@@ -420,6 +478,66 @@ fn run_run(args: RunArgs) -> Result<()> {
     if metrics.ended != "budget" {
         println!("ended: {}", metrics.ended);
     }
+    Ok(())
+}
+
+fn run_eval(args: EvalArgs) -> Result<()> {
+    let sensor = SensorConfig {
+        width: args.width,
+        height: args.height,
+        ..SensorConfig::default()
+    };
+    let evaluation = splatloop::novel_view::evaluate_map(
+        &args.map,
+        &args.world,
+        &sensor,
+        args.test_views,
+        args.seed,
+        args.engine.parse().map_err(anyhow::Error::msg)?,
+    )
+    .with_context(|| format!("evaluating {} failed", args.map.display()))?;
+    print_evaluation(&evaluation);
+    if let Some(out) = &args.out {
+        let text = serde_json::to_string_pretty(&evaluation)?;
+        std::fs::write(out, text + "\n")
+            .with_context(|| format!("cannot write {}", out.display()))?;
+    }
+    Ok(())
+}
+
+fn run_render(args: RenderArgs) -> Result<()> {
+    let camera = match args.camera {
+        Some(c) => c,
+        None => args
+            .poses
+            .parent()
+            .unwrap_or(std::path::Path::new("."))
+            .join("camera.json"),
+    };
+    let config = splatloop::novel_view::RenderConfig {
+        map: args.map,
+        poses: args.poses,
+        camera,
+        out: args.out,
+        engine: args.engine.parse().map_err(anyhow::Error::msg)?,
+        overwrite: args.overwrite,
+    };
+    let bar = ProgressBar::new(0);
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} rendering [{bar:30}] {pos}/{len} views ({eta})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let frames = splatloop::novel_view::render_map(&config, &mut |done, total| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+    })
+    .with_context(|| format!("rendering {} failed", config.map.display()))?;
+    bar.finish_and_clear();
+    println!(
+        "rendered {frames} views of {} into {}",
+        config.map.display(),
+        config.out.display()
+    );
     Ok(())
 }
 

@@ -6,8 +6,10 @@
 use crate::support::{fixture, repo_path};
 use autonomy::splat::{EngineChoice, Rasteriser};
 use splatloop::camera::SensorConfig;
+use splatloop::dataset::Dataset;
 use splatloop::episode::{run_episode, Latency, PlannerKind, RunConfig};
 use splatloop::evaluate::{evaluate, TestSet};
+use splatloop::novel_view::{evaluate_map, render_map, RenderConfig};
 
 fn config(world: &str, planner: PlannerKind, budget: f64, out: std::path::PathBuf) -> RunConfig {
     RunConfig {
@@ -87,6 +89,80 @@ fn smoke_episode_explores_without_collisions_and_repeats_exactly() {
     }
     let map = autonomy::ply::read(&dir.path().join("a").join("map.ply")).expect("map.ply");
     assert_eq!(map.len(), first.gaussians);
+
+    // `splatloop eval` on the saved map rebuilds the episode's test set and its scores (the PLY
+    // stores colours through f_dc in float32, so not bit for bit).
+    let again = evaluate_map(
+        &dir.path().join("a").join("map.ply"),
+        &repo_path("worlds/room.xml"),
+        &SensorConfig::default(),
+        20,
+        3,
+        EngineChoice::Cpu,
+    )
+    .expect("eval");
+    assert_eq!(again.surface_points, first.evaluation.surface_points);
+    assert!(
+        (again.psnr - first.evaluation.psnr).abs() < 1e-3,
+        "{again:?}"
+    );
+    assert!(
+        (again.coverage - first.evaluation.coverage).abs() < 1e-9,
+        "{again:?}"
+    );
+
+    // `splatloop render` at every 20th pose of the episode: a dataset that reads back, with
+    // the poses given, and images that are the map's render at those poses.
+    let pose_lines = |text: String| -> Vec<String> {
+        text.lines()
+            .filter(|l| !l.starts_with('#'))
+            .map(str::to_owned)
+            .collect()
+    };
+    let some: Vec<String> = pose_lines(read("a")).into_iter().step_by(20).collect();
+    let poses = dir.path().join("poses.txt");
+    std::fs::write(&poses, some.join("\n")).expect("poses");
+    let rendered = RenderConfig {
+        map: dir.path().join("a").join("map.ply"),
+        poses,
+        camera: dir.path().join("a").join("camera.json"),
+        out: dir.path().join("render"),
+        engine: EngineChoice::Cpu,
+        overwrite: false,
+    };
+    assert_eq!(render_map(&rendered, &mut |_, _| {}).expect("render"), 15);
+    assert_eq!(pose_lines(read("render")), some);
+    let dataset = Dataset::open(&dir.path().join("render")).expect("dataset");
+    let recorded = Dataset::open(&dir.path().join("a")).expect("dataset");
+    let engine = Rasteriser::select(EngineChoice::Cpu);
+    for k in [0, 7, 14] {
+        let frame = dataset.load(k).expect("frame");
+        let images = engine
+            .render(&map.gaussians, &frame.camera)
+            .expect("render");
+        let images = images.images();
+        for (byte, c) in frame.rgb.iter().zip(&images.colour) {
+            assert!((f32::from(*byte) / 255.0 - c.clamp(0.0, 1.0)).abs() <= 0.5 / 255.0 + 1e-6);
+        }
+        for ((d, z), s) in frame
+            .depth
+            .iter()
+            .zip(&images.depth)
+            .zip(&images.silhouette)
+        {
+            let expected = if *s >= 0.5 { z / s } else { 0.0 };
+            // 16-bit PNG depth: 0.2 mm steps.
+            assert!(
+                (d - expected).abs() <= 1.1e-4 || expected > 5.0,
+                "{d} vs {expected}"
+            );
+        }
+        // Novel views of a 60 s map resemble what the camera saw there.
+        let truth = recorded.load(20 * k).expect("frame");
+        let to_f = |v: &[u8]| v.iter().map(|b| f32::from(*b) / 255.0).collect::<Vec<_>>();
+        let psnr = autonomy::metrics::psnr(&to_f(&frame.rgb), &to_f(&truth.rgb));
+        assert!(psnr > 15.0, "view {k}: {psnr:.2} dB");
+    }
 }
 
 #[test]

@@ -6,7 +6,7 @@ mod reader;
 mod writer;
 
 pub use images::{read_depth_png, read_rgb_png, write_depth_png, write_rgb_png};
-pub use reader::{Dataset, DatasetFrame};
+pub use reader::{read_trajectory, Dataset, DatasetFrame};
 pub(crate) use writer::write_json;
 pub use writer::DatasetWriter;
 
@@ -54,6 +54,16 @@ impl CameraFile {
                          integer coordinates; planar depth; poses are world_from_camera"
                 .into(),
         }
+    }
+
+    /// Reads a camera.json.
+    pub fn read(path: &std::path::Path) -> crate::error::Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| crate::error::SimError::io("cannot read", path, e))?;
+        serde_json::from_str(&text).map_err(|e| crate::error::SimError::BadDataset {
+            path: path.to_owned(),
+            detail: format!("{e}; expected the camera.json of a splatloop dataset"),
+        })
     }
 
     /// The intrinsics back.

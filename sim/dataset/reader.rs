@@ -35,13 +35,7 @@ pub struct Dataset {
 impl Dataset {
     /// Opens a folder written by [`super::DatasetWriter`] (or any TUM folder with camera.json).
     pub fn open(dir: &Path) -> Result<Self> {
-        let camera_path = dir.join("camera.json");
-        let text = std::fs::read_to_string(&camera_path)
-            .map_err(|e| SimError::io("cannot read", &camera_path, e))?;
-        let camera: CameraFile = serde_json::from_str(&text).map_err(|e| SimError::BadDataset {
-            path: camera_path.clone(),
-            detail: e.to_string(),
-        })?;
+        let camera = CameraFile::read(&dir.join("camera.json"))?;
         let rgb = read_list(&dir.join("rgb.txt"), 1)?;
         let depth = read_list(&dir.join("depth.txt"), 1)?;
         let poses = read_trajectory(&dir.join("groundtruth.txt"))?;
