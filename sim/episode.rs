@@ -161,6 +161,8 @@ struct Schedule {
     start: f64,
     period: f64,
     controls: Vec<UnicycleCommand>,
+    /// A recovery manoeuvre: it runs to its end before the planner is asked again.
+    recovery: bool,
 }
 
 impl Schedule {
@@ -169,7 +171,13 @@ impl Schedule {
             start,
             period: 1.0,
             controls: Vec::new(),
+            recovery: false,
         }
+    }
+
+    /// When the last control ends.
+    fn end(&self) -> f64 {
+        self.start + self.period * self.controls.len() as f64
     }
 
     fn at(&self, t: f64) -> UnicycleCommand {
@@ -218,6 +226,7 @@ fn recovery_schedule(kind: Recovery, start: f64, heading: f64, away: Option<f64>
         start,
         period: tick,
         controls,
+        recovery: true,
     }
 }
 
@@ -243,8 +252,8 @@ impl StuckWatch {
     /// Distance the robot must get from where it was to count as free, metres.
     const ESCAPE: f64 = 0.3;
     /// Recoveries and simulated seconds without escaping before the episode ends.
-    const RECOVERIES: usize = 3;
-    const SECONDS: f64 = 30.0;
+    const RECOVERIES: usize = 5;
+    const SECONDS: f64 = 45.0;
 
     fn new(pose: Pose2) -> Self {
         StuckWatch {
@@ -390,6 +399,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     let mut stuck = StuckWatch::new(last_pose);
     let mut recent_delays = std::collections::VecDeque::from([0.0f64]);
     let mut ended = String::from("budget");
+    let mut last_touch = f64::NEG_INFINITY;
     for step in 0..steps {
         let time = world.data().time();
         if time + 0.5 * timestep >= next_frame {
@@ -419,7 +429,13 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
             let t1 = Instant::now();
             let pose = world.pose();
             mapping_times.push((t1 - t0).as_secs_f64());
-            if survey.is_none() {
+            // A recovery manoeuvre runs to its end: replanning every second would cut a
+            // back-off's turn short and start it again, and the robot would never get out.
+            let recovering = {
+                let active = pending.as_ref().unwrap_or(&current);
+                active.recovery && time + 0.5 * timestep < active.end()
+            };
+            if survey.is_none() && !recovering {
                 // With wall latency the new schedule starts after the compute delay, so it is
                 // planned from where the current one will have taken the robot by then; the
                 // delay is estimated by the slowest of the last three thinks.
@@ -461,6 +477,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
                     Ok(p) => Schedule {
                         start,
                         period: 1.0,
+                        recovery: false,
                         controls: p
                             .controls
                             .iter()
@@ -525,7 +542,26 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
             None => current.at(time),
         };
         world.step(command)?;
-        if world.robot_collisions().next().is_some() {
+        if let Some(contact) = world.robot_collisions().next() {
+            // One warning per contact episode: contacts flicker from step to step.
+            if time - last_touch > 0.5 {
+                let other = if world.robot().owns_geom(contact.geom1) {
+                    contact.geom2
+                } else {
+                    contact.geom1
+                };
+                let name = world
+                    .model()
+                    .name(crate::mujoco::ObjKind::Geom, other)
+                    .unwrap_or_else(|| format!("geom {other}"));
+                tracing::warn!(
+                    "t = {:.1} s: the robot touches {name} at ({:.2}, {:.2})",
+                    time,
+                    contact.position.x,
+                    contact.position.y
+                );
+            }
+            last_touch = time;
             collision_steps += 1;
         }
         let pose = world.pose();

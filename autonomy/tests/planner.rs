@@ -420,3 +420,60 @@ fn failures_come_back_as_values_with_a_recovery() {
         .count();
     assert_eq!(odometry, 4);
 }
+
+#[test]
+fn viewpoints_behind_a_wall_are_not_targets() {
+    // A closed 10 x 10 m room of settled Gaussians, and far outside it a cluster of very
+    // uncertain ones: its viewpoints all lie outside the walls, where the robot cannot go.
+    let mut g = Gaussians::default();
+    let mut uncertainty = Vec::new();
+    for k in 0..100 {
+        let s = -5.0 + 0.1 * k as f32;
+        for z in [0.1f32, 0.25, 0.4, 0.55, 0.7, 0.85, 1.0] {
+            for p in [[s, -5.0, z], [s, 5.0, z], [-5.0, s, z], [5.0, s, z]] {
+                g.push(p, 0.02, 0.9, [0.5; 3]);
+                uncertainty.push(1e-4 * (k % 3) as f32);
+            }
+        }
+    }
+    for k in 0..400 {
+        let p = [12.0 + 0.01 * (k % 20) as f32, 0.01 * (k / 20) as f32, 0.5];
+        g.push(p, 0.02, 0.9, [0.5; 3]);
+        uncertainty.push(1.0);
+    }
+    let map = GaussianMap {
+        gaussians: g,
+        uncertainty,
+    };
+    let origin = State {
+        x: 0.0,
+        y: 0.0,
+        theta: 0.0,
+    };
+    let mut planner = RtGuidePlanner::new(PlannerConfig::default(), CollisionEngine::Grid);
+    let plan = planner
+        .plan(&map, origin)
+        .expect("a target inside the room");
+    let target = plan.guidance.last().copied().expect("guidance");
+    assert!(
+        target[0].abs() < 5.0 && target[1].abs() < 5.0,
+        "the target {target:?} is outside the walls"
+    );
+    // Without the wall the cluster's viewpoints win: the check above is what kept them out.
+    let open = GaussianMap {
+        gaussians: {
+            let mut g = Gaussians::default();
+            for i in 0..map.len() {
+                if map.uncertainty[i] == 1.0 {
+                    g.push(map.gaussians.means[i], 0.02, 0.9, [0.5; 3]);
+                }
+            }
+            g
+        },
+        uncertainty: vec![1.0; 400],
+    };
+    let mut planner = RtGuidePlanner::new(PlannerConfig::default(), CollisionEngine::Grid);
+    let plan = planner.plan(&open, origin).expect("plan in the open");
+    let target = plan.guidance.last().copied().expect("guidance");
+    assert!(target[0] > 5.0, "{target:?}");
+}

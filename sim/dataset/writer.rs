@@ -78,6 +78,12 @@ impl DatasetWriter {
             let path = dir.join(sub);
             fs::create_dir_all(&path).map_err(|e| SimError::io("cannot create", &path, e))?;
         }
+        // Marks the folder as ours from the start, so a run that is interrupted can be
+        // replaced with --overwrite; `finish` writes the real record over it.
+        write_json(
+            &dir.join("episode.json"),
+            &serde_json::json!({ "status": "incomplete: the run that wrote this did not finish" }),
+        )?;
         let open = |name: &str, header: &str| -> Result<BufWriter<File>> {
             let path = dir.join(name);
             let mut file = BufWriter::new(

@@ -59,14 +59,25 @@ impl Obstacles {
 
     /// [`Obstacles::from_gaussians`] into the existing buffers (no fresh allocation per plan).
     pub fn refill(&mut self, g: &Gaussians, options: &ClassifyOptions) {
+        use rayon::prelude::*;
         self.means.clear();
         self.radii.clear();
-        for i in 0..g.len() {
-            if options.includes(&g.means[i]) {
-                self.means.push(g.means[i]);
-                self.radii.push(g.log_radii[i].exp());
-            }
-        }
+        // rayon keeps the map's order in what it extends.
+        self.means.par_extend(
+            g.means
+                .par_iter()
+                .with_min_len(1 << 14)
+                .filter(|m| options.includes(m))
+                .copied(),
+        );
+        self.radii.par_extend(
+            g.means
+                .par_iter()
+                .zip(g.log_radii.par_iter())
+                .with_min_len(1 << 14)
+                .filter(|(m, _)| options.includes(m))
+                .map(|(_, r)| r.exp()),
+        );
     }
 
     /// Number of obstacles.

@@ -2,7 +2,7 @@
 //! odometry and viewpoint nodes, Dijkstra from the robot, and the guidance path with the best
 //! Omega / e^d.
 
-use crate::map::{ClassifyOptions, GaussianMap};
+use crate::map::{ClassifyOptions, GaussianMap, MapSummary, CHUNK};
 
 /// A cuboid of the known space and its utility.
 #[derive(Debug, Clone, PartialEq)]
@@ -18,29 +18,50 @@ pub struct Region {
 /// Cuts the bounding box of the map's (non-ground) Gaussians into cubes of side `size` and
 /// gives each occupied one its mean uncertainty.
 pub fn regions(map: &GaussianMap, options: &ClassifyOptions, size: f64) -> Vec<Region> {
-    let g = &map.gaussians;
-    let included = || (0..g.len()).filter(|i| options.includes(&g.means[*i]));
-    let mut lo = [f64::MAX; 3];
-    let mut hi = [f64::MIN; 3];
-    let mut any = false;
-    for i in included() {
-        any = true;
-        for a in 0..3 {
-            lo[a] = lo[a].min(f64::from(g.means[i][a]));
-            hi[a] = hi[a].max(f64::from(g.means[i][a]));
-        }
-    }
-    if !any {
+    regions_within(map, options, size, &map.summary(options))
+}
+
+/// [`regions`] over the bounds of a [`MapSummary`] already computed, in parallel chunks
+/// summed in a fixed order (the same answer whatever the threads).
+pub fn regions_within(
+    map: &GaussianMap,
+    options: &ClassifyOptions,
+    size: f64,
+    summary: &MapSummary,
+) -> Vec<Region> {
+    use rayon::prelude::*;
+    if summary.stats.count == 0 {
         return Vec::new();
     }
+    let g = &map.gaussians;
+    let lo = summary.lo.map(f64::from);
+    let hi = summary.hi.map(f64::from);
     let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / size).floor() as usize + 1);
-    let mut sums = vec![(0.0f64, 0usize); dims[0] * dims[1] * dims[2]];
-    for i in included() {
-        let k = [0, 1, 2]
-            .map(|a| (((f64::from(g.means[i][a]) - lo[a]) / size) as usize).min(dims[a] - 1));
-        let e = &mut sums[(k[2] * dims[1] + k[1]) * dims[0] + k[0]];
-        e.0 += f64::from(map.uncertainty[i]);
-        e.1 += 1;
+    let cells = dims[0] * dims[1] * dims[2];
+    let partial: Vec<Vec<(f64, usize)>> = g
+        .means
+        .par_chunks(CHUNK)
+        .zip(map.uncertainty.par_chunks(CHUNK))
+        .map(|(means, uncertainty)| {
+            let mut sums = vec![(0.0f64, 0usize); cells];
+            for (m, u) in means.iter().zip(uncertainty) {
+                if options.includes(m) {
+                    let k = [0, 1, 2]
+                        .map(|a| (((f64::from(m[a]) - lo[a]) / size) as usize).min(dims[a] - 1));
+                    let e = &mut sums[(k[2] * dims[1] + k[1]) * dims[0] + k[0]];
+                    e.0 += f64::from(*u);
+                    e.1 += 1;
+                }
+            }
+            sums
+        })
+        .collect();
+    let mut sums = vec![(0.0f64, 0usize); cells];
+    for part in partial {
+        for (s, p) in sums.iter_mut().zip(part) {
+            s.0 += p.0;
+            s.1 += p.1;
+        }
     }
     sums.into_iter()
         .enumerate()
@@ -185,6 +206,12 @@ impl TopologicalGraph {
             self.edges.push((i, new, d));
         }
         new
+    }
+
+    /// Cuts every edge of node `i`, so no path reaches it (a viewpoint found to lie behind a
+    /// wall).
+    pub fn detach(&mut self, i: usize) {
+        self.edges.retain(|(a, b, _)| *a != i && *b != i);
     }
 
     /// Dijkstra from `source`.

@@ -20,6 +20,11 @@ use search::{search, SearchConfig};
 use std::time::Instant;
 use unicycle::{Control, State};
 
+/// Spacing of the collision samples along a viewpoint's edge, metres.
+const EDGE_STEP: f64 = 0.1;
+/// Viewpoints tried per plan before the goal counts as unreachable.
+const MAX_EDGE_CHECKS: usize = 64;
+
 /// Settings of the planner (the paper's values by default).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlannerConfig {
@@ -289,15 +294,46 @@ impl RtGuidePlanner {
             (t[0] - robot.x).hypot(t[1] - robot.y) >= cfg.min_viewpoint_distance
                 && self.target_plans < cfg.keep_target_plans
         });
-        let (best, path, _) = self
-            .graph
-            .best_viewpoint_keeping(
-                source,
-                cfg.min_viewpoint_distance,
-                previous,
-                cfg.keep_target_fraction,
-            )
-            .ok_or(PlanFailure::GoalUnreachable)?;
+        // The best viewpoint whose edge into the graph is clear of the map: a viewpoint is
+        // joined to its nearest odometry node by a straight line, which can cross a wall (the
+        // viewpoint then lies outside the known space and A* would push into the wall).
+        let mut checked = 0;
+        let (best, path) = loop {
+            let (best, path, _) = self
+                .graph
+                .best_viewpoint_keeping(
+                    source,
+                    cfg.min_viewpoint_distance,
+                    previous,
+                    cfg.keep_target_fraction,
+                )
+                .ok_or(PlanFailure::GoalUnreachable)?;
+            let from = if path.len() >= 2 {
+                self.graph.nodes[path[path.len() - 2]].position
+            } else {
+                [robot.x, robot.y]
+            };
+            let to = self.graph.nodes[best].position;
+            let steps = ((to[0] - from[0]).hypot(to[1] - from[1]) / EDGE_STEP).ceil() as usize;
+            let samples: Vec<[f32; 3]> = (1..=steps)
+                .map(|k| {
+                    let t = k as f64 / steps as f64;
+                    [
+                        (from[0] + t * (to[0] - from[0])) as f32,
+                        (from[1] + t * (to[1] - from[1])) as f32,
+                        model.centre_height,
+                    ]
+                })
+                .collect();
+            checked += 1;
+            if !self.collisions(obstacles, &samples).contains(&true) {
+                break (best, path);
+            }
+            if checked >= MAX_EDGE_CHECKS {
+                return Err(PlanFailure::GoalUnreachable);
+            }
+            self.graph.detach(best);
+        };
         let target = self.graph.nodes[best].position;
         let same = previous.is_some_and(|p| (p[0] - target[0]).hypot(p[1] - target[1]) < 0.5);
         self.target_plans = if same { self.target_plans + 1 } else { 1 };

@@ -35,7 +35,7 @@ impl Default for SearchConfig {
             samples_per_horizon: 129,
             goal_tolerance: 0.5,
             max_segments: 10,
-            max_expansions: 3000,
+            max_expansions: 800,
             candidates: 5,
         }
     }
