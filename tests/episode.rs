@@ -46,22 +46,23 @@ fn smoke_episode_explores_without_collisions_and_repeats_exactly() {
     assert_eq!(first.collision_steps, 0);
     assert_eq!(first.ended, "budget");
     assert_eq!(first.frames, 300);
-    // Measured on the CI machine (2026-11-25, 60 s, seed 3): see the numbers beside each floor;
-    // the floors leave room for other machines' float rounding.
+    // Measured on the CI machine (2026-11-25, 60 s, seed 3): 14.4 m driven, 120133 Gaussians,
+    // PSNR 20.7 dB, coverage 90.5% on 20 hidden views. The floors leave room for other
+    // machines' float rounding, which changes the trajectory.
     assert!(
-        first.path_length > 2.0,
+        first.path_length > 6.0,
         "drove only {:.2} m",
         first.path_length
     );
-    assert!(first.gaussians > 50_000, "{} Gaussians", first.gaussians);
+    assert!(first.gaussians > 60_000, "{} Gaussians", first.gaussians);
     assert_eq!(first.evaluation.views, 20);
     assert!(
-        first.evaluation.psnr > 14.0,
+        first.evaluation.psnr > 17.0,
         "PSNR {:.2} dB",
         first.evaluation.psnr
     );
     assert!(
-        first.evaluation.coverage > 0.5,
+        first.evaluation.coverage > 0.75,
         "coverage {:.3}",
         first.evaluation.coverage
     );
