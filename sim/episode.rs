@@ -137,6 +137,10 @@ pub struct Metrics {
     pub mapping: StageTime,
     /// Wall time of a plan.
     pub planning: StageTime,
+    /// Wall time of a camera frame: render, read back, write the PNGs.
+    pub camera: StageTime,
+    /// Wall time of a physics step (drive controller included).
+    pub physics: StageTime,
     /// The splat engine used.
     pub engine: String,
     /// Why the episode ended: "budget", "survey complete", or "stuck: ...".
@@ -391,6 +395,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     let mut current = Schedule::idle(0.0);
     let mut pending: Option<Schedule> = None;
     let (mut mapping_times, mut planning_times) = (Vec::new(), Vec::new());
+    let (mut camera_times, mut physics_times) = (Vec::new(), Vec::new());
     let mut failures = std::collections::BTreeMap::new();
     let (mut collision_steps, mut recovery_events, mut path_length) = (0, 0, 0.0);
     let mut last_pose = world.pose();
@@ -403,8 +408,10 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     for step in 0..steps {
         let time = world.data().time();
         if time + 0.5 * timestep >= next_frame {
+            let t0 = Instant::now();
             camera.capture_into(world.data(), &mut frame)?;
             writer.write_frame(&frame)?;
+            camera_times.push(t0.elapsed().as_secs_f64());
             have_frame = true;
             next_frame += frame_period;
         }
@@ -541,7 +548,9 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
             }
             None => current.at(time),
         };
+        let t0 = Instant::now();
         world.step(command)?;
+        physics_times.push(t0.elapsed().as_secs_f64());
         if let Some(contact) = world.robot_collisions().next() {
             // One warning per contact episode: contacts flicker from step to step.
             if time - last_touch > 0.5 {
@@ -597,6 +606,8 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
         mapping_steps: mapper.steps(),
         mapping: stage(mapping_times),
         planning: stage(planning_times),
+        camera: stage(camera_times),
+        physics: stage(physics_times),
         engine: engine_name,
         ended,
         peak_memory_bytes: peak_memory_bytes(),
