@@ -23,7 +23,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Explore a world on its own: map it online and plan with RT-GuIDE, every tick; write the
+    /// Explore a world on its own: map it online and plan (RT-GuIDE, or the survey) every tick; write the
     /// dataset, map.ply and metrics.json.
     Run(RunArgs),
     /// Drive the robot open-loop through a world and write an RGB-D dataset with exact poses.
@@ -84,7 +84,7 @@ struct RunArgs {
     /// Simulated seconds to explore.
     #[arg(long, default_value_t = 60.0)]
     budget: f64,
-    /// Seed (sensor noise).
+    /// Seed (sensor noise and the hidden test set).
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Camera frames per simulated second.
@@ -97,15 +97,8 @@ struct RunArgs {
     /// its previous plan); none: the world waits.
     #[arg(long, default_value = "wall")]
     latency: String,
-    /// Splat engine: auto (a hardware GPU if any), cpu or gpu.
-    #[arg(long, default_value = "auto")]
-    engine: String,
-    /// Image width, pixels.
-    #[arg(long, default_value_t = 320)]
-    width: u32,
-    /// Image height, pixels.
-    #[arg(long, default_value_t = 240)]
-    height: u32,
+    #[command(flatten)]
+    view: ViewArgs,
     /// Hidden test views for the evaluation, sampled in free space (0: skip).
     #[arg(long, default_value_t = 100)]
     test_views: usize,
@@ -115,6 +108,20 @@ struct RunArgs {
     /// Replace the output folder if it holds an earlier episode.
     #[arg(long)]
     overwrite: bool,
+}
+
+/// The camera size and splat engine of the commands that render a map.
+#[derive(clap::Args)]
+struct ViewArgs {
+    /// Splat engine: auto (a hardware GPU if any), cpu or gpu.
+    #[arg(long, default_value = "auto")]
+    engine: String,
+    /// Image width, pixels.
+    #[arg(long, default_value_t = 320)]
+    width: u32,
+    /// Image height, pixels.
+    #[arg(long, default_value_t = 240)]
+    height: u32,
 }
 
 #[derive(clap::Args)]
@@ -131,15 +138,8 @@ struct EvalArgs {
     /// Seed of the test set (the episode's --seed gives the episode's set).
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Splat engine: auto, cpu or gpu.
-    #[arg(long, default_value = "auto")]
-    engine: String,
-    /// Image width, pixels.
-    #[arg(long, default_value_t = 320)]
-    width: u32,
-    /// Image height, pixels.
-    #[arg(long, default_value_t = 240)]
-    height: u32,
+    #[command(flatten)]
+    view: ViewArgs,
     /// Also write the scores to this JSON file.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -433,12 +433,12 @@ fn run_run(args: RunArgs) -> Result<()> {
         latency,
         planner: args.planner.parse().map_err(anyhow::Error::msg)?,
         sensor: SensorConfig {
-            width: args.width,
-            height: args.height,
+            width: args.view.width,
+            height: args.view.height,
             ..SensorConfig::default()
         },
         test_views: args.test_views,
-        engine: args.engine.parse().map_err(anyhow::Error::msg)?,
+        engine: args.view.engine.parse().map_err(anyhow::Error::msg)?,
         overwrite: args.overwrite,
         out: args.out,
     };
@@ -483,8 +483,8 @@ fn run_run(args: RunArgs) -> Result<()> {
 
 fn run_eval(args: EvalArgs) -> Result<()> {
     let sensor = SensorConfig {
-        width: args.width,
-        height: args.height,
+        width: args.view.width,
+        height: args.view.height,
         ..SensorConfig::default()
     };
     let evaluation = splatloop::novel_view::evaluate_map(
@@ -493,7 +493,7 @@ fn run_eval(args: EvalArgs) -> Result<()> {
         &sensor,
         args.test_views,
         args.seed,
-        args.engine.parse().map_err(anyhow::Error::msg)?,
+        args.view.engine.parse().map_err(anyhow::Error::msg)?,
     )
     .with_context(|| format!("evaluating {} failed", args.map.display()))?;
     print_evaluation(&evaluation);

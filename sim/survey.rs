@@ -7,6 +7,7 @@ use crate::error::{Result, SimError};
 use crate::evaluate::free;
 use crate::robot::{Pose2, UnicycleCommand};
 use crate::world::World;
+use autonomy::math::TotalF64;
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, VecDeque};
 use std::f64::consts::{PI, TAU};
@@ -128,8 +129,8 @@ impl FreeGrid {
         let mut distance = vec![f64::INFINITY; self.reachable.len()];
         distance[a] = 0.0;
         previous[a] = a;
-        let mut queue = BinaryHeap::from([(Reverse(OrderedCost(0.0)), a)]);
-        while let Some((Reverse(OrderedCost(d)), c)) = queue.pop() {
+        let mut queue = BinaryHeap::from([(Reverse(TotalF64(0.0)), a)]);
+        while let Some((Reverse(TotalF64(d)), c)) = queue.pop() {
             if c == b {
                 break;
             }
@@ -146,7 +147,7 @@ impl FreeGrid {
                 if self.reachable[n] && nd < distance[n] {
                     distance[n] = nd;
                     previous[n] = c;
-                    queue.push((Reverse(OrderedCost(nd)), n));
+                    queue.push((Reverse(TotalF64(nd)), n));
                 }
             }
         }
@@ -159,24 +160,6 @@ impl FreeGrid {
         }
         path.reverse();
         path
-    }
-}
-
-/// A path length that orders totally (lengths are finite sums of 1 and sqrt 2).
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct OrderedCost(f64);
-
-impl Eq for OrderedCost {}
-
-impl PartialOrd for OrderedCost {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for OrderedCost {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.0.total_cmp(&other.0)
     }
 }
 

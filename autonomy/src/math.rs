@@ -18,3 +18,22 @@ pub type Matrix3 = nalgebra::Matrix3<Real>;
 pub type Matrix4 = nalgebra::Matrix4<Real>;
 /// A translation in 3D.
 pub type Translation3 = nalgebra::Translation3<Real>;
+
+/// An f64 ordered by `total_cmp`, for priority queues (A*, Dijkstra): costs are never NaN,
+/// and a total order keeps equal inputs giving equal outputs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TotalF64(pub f64);
+
+impl Eq for TotalF64 {}
+
+impl PartialOrd for TotalF64 {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for TotalF64 {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&other.0)
+    }
+}

@@ -3,6 +3,7 @@
 //! Omega / e^d.
 
 use crate::map::{ClassifyOptions, GaussianMap, MapSummary, CHUNK};
+use crate::math::TotalF64;
 
 /// A cuboid of the known space and its utility.
 #[derive(Debug, Clone, PartialEq)]
@@ -226,8 +227,8 @@ impl TopologicalGraph {
         let mut previous = vec![None; n];
         let mut heap = std::collections::BinaryHeap::new();
         distance[source] = 0.0;
-        heap.push(std::cmp::Reverse((OrderedF64(0.0), source)));
-        while let Some(std::cmp::Reverse((OrderedF64(d), u))) = heap.pop() {
+        heap.push(std::cmp::Reverse((TotalF64(0.0), source)));
+        while let Some(std::cmp::Reverse((TotalF64(d), u))) = heap.pop() {
             if d > distance[u] {
                 continue;
             }
@@ -236,7 +237,7 @@ impl TopologicalGraph {
                 if nd < distance[v] {
                     distance[v] = nd;
                     previous[v] = Some(u);
-                    heap.push(std::cmp::Reverse((OrderedF64(nd), v)));
+                    heap.push(std::cmp::Reverse((TotalF64(nd), v)));
                 }
             }
         }
@@ -295,24 +296,6 @@ impl TopologicalGraph {
             }
         }
         Some((best, paths.path_to(best), score))
-    }
-}
-
-/// A float with a total order, for the heap.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct OrderedF64(f64);
-
-impl Eq for OrderedF64 {}
-
-impl PartialOrd for OrderedF64 {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for OrderedF64 {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.0.total_cmp(&other.0)
     }
 }
 

@@ -3,6 +3,7 @@
 //! the best N_traj trajectories come back as candidates.
 
 use super::unicycle::{advance, Control, Primitives, State};
+use crate::math::TotalF64;
 use std::collections::{BinaryHeap, HashSet};
 
 /// Settings of the search.
@@ -63,21 +64,9 @@ struct Node {
     segments: usize,
 }
 
-#[derive(PartialEq)]
-struct Open(f64, usize);
-
-impl Eq for Open {}
-impl PartialOrd for Open {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-impl Ord for Open {
-    // Smallest f first; ties by insertion order, so equal inputs give equal outputs.
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        other.0.total_cmp(&self.0).then(other.1.cmp(&self.1))
-    }
-}
+/// An open node: smallest f first, ties by insertion order (so equal inputs give equal
+/// outputs).
+type Open = std::cmp::Reverse<(TotalF64, usize)>;
 
 /// Sample points of one segment (the end included, the start not) at the horizon's spacing.
 pub fn segment_points(s: &State, u: &Control, duration: f64, spacing: f64) -> Vec<State> {
@@ -123,12 +112,12 @@ pub fn search(
         control: None,
         segments: 0,
     }];
-    let mut open = BinaryHeap::new();
-    open.push(Open(h(&start), 0));
+    let mut open: BinaryHeap<Open> = BinaryHeap::new();
+    open.push(std::cmp::Reverse((TotalF64(h(&start)), 0)));
     let mut closed = HashSet::new();
     let mut complete: Vec<usize> = Vec::new();
     let mut expansions = 0;
-    while let Some(Open(_, i)) = open.pop() {
+    while let Some(std::cmp::Reverse((_, i))) = open.pop() {
         let (state, segments, length) = (nodes[i].state, nodes[i].segments, nodes[i].length);
         let at_goal = h(&state) * v_max <= config.goal_tolerance;
         if i != 0 && (at_goal || length >= config.horizon || segments >= config.max_segments) {
@@ -174,7 +163,7 @@ pub fn search(
                 segments: segments + 1,
             });
             let j = nodes.len() - 1;
-            open.push(Open(cost + h(&end), j));
+            open.push(std::cmp::Reverse((TotalF64(cost + h(&end)), j)));
         }
     }
     // Too few complete ones: fill with the most promising partial trajectories.
