@@ -163,7 +163,16 @@ impl GaussianMap {
 
     /// The class of every Gaussian.
     pub fn classify(&self, options: &ClassifyOptions) -> Vec<UncertaintyClass> {
-        let summary = self.summary(options);
+        self.classify_with(options, &self.summary(options))
+    }
+
+    /// [`GaussianMap::classify`] with the thresholds of a summary already computed (the
+    /// planner takes one per plan and shares it with the regions).
+    pub fn classify_with(
+        &self,
+        options: &ClassifyOptions,
+        summary: &MapSummary,
+    ) -> Vec<UncertaintyClass> {
         self.uncertainty
             .iter()
             .enumerate()

@@ -5,6 +5,9 @@
 use crate::map::{ClassifyOptions, GaussianMap, MapSummary, CHUNK};
 use crate::math::TotalF64;
 
+/// Viewpoints this close to the last plan's target count as the same target, metres.
+pub const KEEP_RADIUS: f64 = 0.5;
+
 /// A cuboid of the known space and its utility.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Region {
@@ -266,7 +269,6 @@ impl TopologicalGraph {
         previous: Option<[f64; 2]>,
         keep_fraction: f64,
     ) -> Option<(usize, Vec<usize>, f64)> {
-        const KEEP_RADIUS: f64 = 0.5;
         let paths = self.dijkstra(source);
         let scores: Vec<(usize, f64)> = self
             .nodes

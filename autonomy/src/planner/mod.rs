@@ -14,7 +14,7 @@ pub mod unicycle;
 use crate::map::{ClassifyOptions, GaussianMap};
 use collision::{CollisionGrid, CollisionModel, Obstacles};
 use gpu_collision::GpuCollision;
-use graph::{local_goal, regions, TopologicalGraph};
+use graph::{local_goal, regions_within, TopologicalGraph, KEEP_RADIUS};
 use information::{CameraMount, ViewCounter};
 use search::{search, SearchConfig};
 use std::time::Instant;
@@ -256,7 +256,9 @@ impl RtGuidePlanner {
         let cfg = self.config.clone();
         let k = &cfg.mount.intrinsics;
         let half_fov = (k.cx / k.fx).atan().min((k.cy / k.fy).atan());
-        for region in regions(map, &cfg.classify, cfg.region_size) {
+        // One pass for the statistics and bounds, shared by the regions and the classes.
+        let summary = map.summary(&cfg.classify);
+        for region in regions_within(map, &cfg.classify, cfg.region_size, &summary) {
             // The shortest distance at which the region's bounding sphere fits the view.
             let reach = cfg.region_size * 3f64.sqrt() / 2.0 / half_fov.sin();
             let mut candidates = Vec::new();
@@ -335,7 +337,8 @@ impl RtGuidePlanner {
             self.graph.detach(best);
         };
         let target = self.graph.nodes[best].position;
-        let same = previous.is_some_and(|p| (p[0] - target[0]).hypot(p[1] - target[1]) < 0.5);
+        let same =
+            previous.is_some_and(|p| (p[0] - target[0]).hypot(p[1] - target[1]) < KEEP_RADIUS);
         self.target_plans = if same { self.target_plans + 1 } else { 1 };
         self.target = Some(target);
         let mut guidance = vec![[robot.x, robot.y]];
@@ -369,7 +372,7 @@ impl RtGuidePlanner {
         }
 
         let t2 = Instant::now();
-        let classes = map.classify(&cfg.classify);
+        let classes = map.classify_with(&cfg.classify, &summary);
         let counter = match self.counter.as_mut() {
             Some(c) => {
                 c.rebuild(&map.gaussians.means, &classes);
