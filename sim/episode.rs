@@ -333,9 +333,6 @@ pub fn test_seed(seed: u64) -> u64 {
     seed ^ 0x7e57
 }
 
-/// The robot's path: planar poses every 0.1 simulated seconds.
-pub type Path2 = Vec<Pose2>;
-
 /// Runs an episode; `on_progress` is called after each mapping step.
 pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) -> Result<Metrics> {
     for (what, v) in [
@@ -399,7 +396,8 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     let mut failures = std::collections::BTreeMap::new();
     let (mut collision_steps, mut recovery_events, mut path_length) = (0, 0, 0.0);
     let mut last_pose = world.pose();
-    let mut path: Path2 = vec![last_pose];
+    // The path for trajectory.png: a pose every 50 physics steps (0.1 s at 2 ms).
+    let mut path = vec![last_pose];
     let mut progress_check = (0.0, last_pose);
     let mut stuck = StuckWatch::new(last_pose);
     let mut recent_delays = std::collections::VecDeque::from([0.0f64]);

@@ -442,12 +442,9 @@ fn run_run(args: RunArgs) -> Result<()> {
         overwrite: args.overwrite,
         out: args.out,
     };
-    let bar = ProgressBar::new((config.budget * 1000.0).round() as u64);
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} exploring [{bar:30}] {msg} ({elapsed} wall, eta {eta})",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    let bar = progress_bar(
+        (config.budget * 1000.0).round() as u64,
+        "{spinner} exploring [{bar:30}] {msg} ({elapsed} wall, eta {eta})",
     );
     let budget = config.budget;
     let metrics = run_episode(&config, &mut |p| {
@@ -522,10 +519,9 @@ fn run_render(args: RenderArgs) -> Result<()> {
         engine: args.engine.parse().map_err(anyhow::Error::msg)?,
         overwrite: args.overwrite,
     };
-    let bar = ProgressBar::new(0);
-    bar.set_style(
-        ProgressStyle::with_template("{spinner} rendering [{bar:30}] {pos}/{len} views ({eta})")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    let bar = progress_bar(
+        0,
+        "{spinner} rendering [{bar:30}] {pos}/{len} views ({eta})",
     );
     let frames = splatloop::novel_view::render_map(&config, &mut |done, total| {
         bar.set_length(total as u64);
@@ -560,6 +556,16 @@ fn print_evaluation(e: &splatloop::evaluate::Evaluation) {
     );
 }
 
+/// A progress bar of `length` steps drawn with `template` (indicatif's default style if the
+/// template does not parse).
+fn progress_bar(length: u64, template: &str) -> ProgressBar {
+    let bar = ProgressBar::new(length);
+    bar.set_style(
+        ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
+}
+
 fn run_record(args: RecordArgs) -> Result<()> {
     let config = RecordConfig {
         world: args.world,
@@ -578,12 +584,9 @@ fn run_record(args: RecordArgs) -> Result<()> {
         overwrite: args.overwrite,
         out: args.out,
     };
-    let bar = ProgressBar::new((config.duration * 1000.0).round() as u64);
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} recording [{bar:30}] {msg} sim s ({elapsed} wall, eta {eta})",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    let bar = progress_bar(
+        (config.duration * 1000.0).round() as u64,
+        "{spinner} recording [{bar:30}] {msg} sim s ({elapsed} wall, eta {eta})",
     );
     let total = config.duration;
     let summary = record(&config, &mut |t| {
