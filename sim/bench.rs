@@ -345,10 +345,7 @@ pub fn clutter_lot(n: usize, seed: u64) -> autonomy::map::GaussianMap {
         g.push(p, rng.gen_range(0.01..0.04), 0.8, [0.5; 3]);
         uncertainty.push(rng.gen_range(0.0..1e-3f32));
     }
-    autonomy::map::GaussianMap {
-        gaussians: g,
-        uncertainty,
-    }
+    autonomy::map::GaussianMap::new(g, uncertainty)
 }
 
 /// Times full plans over [`clutter_lot`] maps with each collision engine.
@@ -421,11 +418,17 @@ pub fn bench_plan(counts: &[usize], brute_force_limit: usize, gpu: bool) -> Vec<
 pub fn bench_viewpoints(n: usize, viewpoints: usize) -> (f64, f64, f64) {
     use autonomy::map::ClassifyOptions;
     use autonomy::planner::information::{CameraMount, ViewCounter};
+    use autonomy::planner::mirror::MapMirror;
     use autonomy::planner::unicycle::State;
     let map = clutter_lot(n, 8);
     let start = Instant::now();
-    let classes = map.classify(&ClassifyOptions::default());
-    let counter = ViewCounter::new(&map.gaussians.means, &classes, CameraMount::default(), 0.5);
+    let options = ClassifyOptions::default();
+    let mut changes = Vec::new();
+    MapMirror::new().sync(&map, &options, &mut changes);
+    let cell = autonomy::planner::PlannerConfig::default().information_cell;
+    let mut counter = ViewCounter::new(CameraMount::default(), cell);
+    counter.apply(&changes);
+    counter.set_stats(&map.stats(&options));
     let build = start.elapsed().as_secs_f64();
     let states: Vec<State> = (0..viewpoints)
         .map(|i| {

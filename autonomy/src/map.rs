@@ -4,12 +4,18 @@
 use crate::gaussians::Gaussians;
 
 /// Gaussians and their per-Gaussian uncertainty |mu_k - mu_(k-1)|, metres.
+///
+/// Every Gaussian also carries a stable id, strictly increasing along the arrays: pruning
+/// renumbers the Gaussians but keeps their ids, so the planner can follow a map that lost
+/// some Gaussians without refiling the rest.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct GaussianMap {
     /// The Gaussians.
     pub gaussians: Gaussians,
     /// One value per Gaussian.
     pub uncertainty: Vec<f32>,
+    ids: Vec<u64>,
+    next_id: u64,
 }
 
 /// Where a Gaussian's uncertainty falls.
@@ -89,6 +95,36 @@ impl MapSummary {
 }
 
 impl GaussianMap {
+    /// A map of `gaussians` with one uncertainty each (missing ones are 0), ids from 0.
+    pub fn new(gaussians: Gaussians, uncertainty: Vec<f32>) -> Self {
+        let mut map = GaussianMap {
+            gaussians,
+            uncertainty,
+            ids: Vec::new(),
+            next_id: 0,
+        };
+        map.adopt_new_gaussians();
+        map
+    }
+
+    /// Gives Gaussians pushed onto `gaussians` since the last call an uncertainty of 0 and a
+    /// fresh id (callers that grow the map in place call it once they are done).
+    pub fn adopt_new_gaussians(&mut self) {
+        let n = self.gaussians.len();
+        self.uncertainty.resize(n, 0.0);
+        self.ids.truncate(n);
+        while self.ids.len() < n {
+            self.ids.push(self.next_id);
+            self.next_id += 1;
+        }
+    }
+
+    /// The stable ids, strictly increasing; shorter than the map when Gaussians were pushed
+    /// and not yet adopted.
+    pub fn ids(&self) -> &[u64] {
+        &self.ids
+    }
+
     /// Number of Gaussians.
     pub fn len(&self) -> usize {
         self.gaussians.len()
@@ -186,11 +222,13 @@ impl GaussianMap {
             .collect()
     }
 
-    /// Keeps the Gaussians whose flag is set.
+    /// Keeps the Gaussians whose flag is set, in order, with their ids.
     pub fn retain(&mut self, keep: &[bool]) {
+        self.adopt_new_gaussians();
         let g = &mut self.gaussians;
         let mut out = Gaussians::default();
         let mut uncertainty = Vec::new();
+        let mut ids = Vec::new();
         for (i, k) in keep.iter().enumerate() {
             if *k {
                 out.means.push(g.means[i]);
@@ -198,9 +236,11 @@ impl GaussianMap {
                 out.logit_opacities.push(g.logit_opacities[i]);
                 out.colours.push(g.colours[i]);
                 uncertainty.push(self.uncertainty[i]);
+                ids.push(self.ids[i]);
             }
         }
         *g = out;
         self.uncertainty = uncertainty;
+        self.ids = ids;
     }
 }

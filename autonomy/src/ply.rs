@@ -199,10 +199,7 @@ pub fn read(path: &Path) -> Result<GaussianMap, PlyError> {
         .collect();
     let uncertainty = index("uncertainty");
     let stride = properties.len() * 4;
-    let mut map = GaussianMap {
-        gaussians: Gaussians::default(),
-        uncertainty: Vec::with_capacity(count),
-    };
+    let mut map = GaussianMap::new(Gaussians::default(), Vec::with_capacity(count));
     let mut record = vec![0u8; stride];
     for i in 0..count {
         if let Err(e) = input.read_exact(&mut record) {
@@ -239,5 +236,6 @@ pub fn read(path: &Path) -> Result<GaussianMap, PlyError> {
             });
         }
     }
+    map.adopt_new_gaussians();
     Ok(map)
 }

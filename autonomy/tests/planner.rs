@@ -242,7 +242,7 @@ fn information_counts_equal_brute_force_and_prefer_high_uncertainty() {
             _ => UncertaintyClass::Other,
         })
         .collect();
-    let counter = ViewCounter::new(&means, &classes, CameraMount::default(), 0.5);
+    let counter = ViewCounter::from_classes(&means, &classes, CameraMount::default(), 0.5);
     for k in 0..50 {
         let s = State {
             x: rng.gen_range(-6.0..6.0),
@@ -266,7 +266,7 @@ fn information_counts_equal_brute_force_and_prefer_high_uncertainty() {
         means.push([-3.0, -0.5 + t * 0.5, 0.2 + 0.5 * t]);
         classes.push(UncertaintyClass::Low);
     }
-    let counter = ViewCounter::new(&means, &classes, CameraMount::default(), 0.5);
+    let counter = ViewCounter::from_classes(&means, &classes, CameraMount::default(), 0.5);
     let east = State {
         x: 0.0,
         y: 0.0,
@@ -342,10 +342,7 @@ fn map_of(obstacles: &Obstacles) -> GaussianMap {
         g.push(*m, *r, 0.9, [0.5; 3]);
     }
     let uncertainty = (0..g.len()).map(|i| (i % 7) as f32 * 1e-4).collect();
-    GaussianMap {
-        gaussians: g,
-        uncertainty,
-    }
+    GaussianMap::new(g, uncertainty)
 }
 
 #[test]
@@ -441,10 +438,7 @@ fn viewpoints_behind_a_wall_are_not_targets() {
         g.push(p, 0.02, 0.9, [0.5; 3]);
         uncertainty.push(1.0);
     }
-    let map = GaussianMap {
-        gaussians: g,
-        uncertainty,
-    };
+    let map = GaussianMap::new(g, uncertainty);
     let origin = State {
         x: 0.0,
         y: 0.0,
@@ -460,20 +454,160 @@ fn viewpoints_behind_a_wall_are_not_targets() {
         "the target {target:?} is outside the walls"
     );
     // Without the wall the cluster's viewpoints win: the check above is what kept them out.
-    let open = GaussianMap {
-        gaussians: {
-            let mut g = Gaussians::default();
-            for i in 0..map.len() {
-                if map.uncertainty[i] == 1.0 {
-                    g.push(map.gaussians.means[i], 0.02, 0.9, [0.5; 3]);
-                }
-            }
-            g
-        },
-        uncertainty: vec![1.0; 400],
-    };
+    let mut cluster = Gaussians::default();
+    for i in 0..map.len() {
+        if map.uncertainty[i] == 1.0 {
+            cluster.push(map.gaussians.means[i], 0.02, 0.9, [0.5; 3]);
+        }
+    }
+    let open = GaussianMap::new(cluster, vec![1.0; 400]);
     let mut planner = RtGuidePlanner::new(PlannerConfig::default(), CollisionEngine::Grid);
     let plan = planner.plan(&open, origin).expect("plan in the open");
     let target = plan.guidance.last().copied().expect("guidance");
     assert!(target[0] > 5.0, "{target:?}");
+}
+
+/// The planner's copy of the map, and the collision grid, tallies and counting grid that
+/// follow its changes, against answers computed afresh from the map after every edit: moves,
+/// uncertainty updates, growth, Gaussians sinking into the ground plane, and prunes that
+/// renumber the map.
+#[test]
+fn incremental_upkeep_equals_a_fresh_pass_after_moves_growth_and_prunes() {
+    use autonomy::map::{ClassifyOptions, MapSummary};
+    use autonomy::planner::graph::regions;
+    use autonomy::planner::mirror::MapMirror;
+    use autonomy::planner::tally::Tally;
+    let options = ClassifyOptions::default();
+    let model = CollisionModel::default();
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    let mut random_gaussians = |g: &mut Gaussians, u: &mut Vec<f32>, n: usize| {
+        for _ in 0..n {
+            let p = [
+                rng.gen_range(-6.0..6.0),
+                rng.gen_range(-6.0..6.0),
+                rng.gen_range(-0.1..2.5),
+            ];
+            let r = if rng.gen_bool(0.02) { 0.2 } else { 0.02 };
+            g.push(p, r, 0.9, [0.5; 3]);
+            u.push(rng.gen_range(0.0..1e-3));
+        }
+    };
+    let (mut g, mut u) = (Gaussians::default(), Vec::new());
+    random_gaussians(&mut g, &mut u, 4000);
+    let mut map = GaussianMap::new(g, u);
+    let mut mirror = MapMirror::new();
+    let mut changes = Vec::new();
+    let mut grid = CollisionGrid::new(model, 0.05);
+    let mut tally = Tally::new(2.5);
+    let mut counter = ViewCounter::new(CameraMount::default(), 1.0);
+    let mut edit_rng = ChaCha8Rng::seed_from_u64(22);
+    for round in 0..6usize {
+        mirror.sync(&map, &options, &mut changes);
+        grid.apply(&changes);
+        tally.apply(&changes);
+        counter.apply(&changes);
+        let stats = tally.stats();
+        counter.set_stats(&stats);
+
+        // Statistics and regions against one pass over the map.
+        let fresh = map.stats(&options);
+        assert_eq!(stats.count, fresh.count, "round {round}");
+        assert!(
+            (stats.mean - fresh.mean).abs() <= 1e-6 * fresh.mean,
+            "round {round}"
+        );
+        assert!(
+            (stats.std - fresh.std).abs() <= 1e-5 * fresh.std,
+            "round {round}"
+        );
+        let (running, reference) = (tally.regions(), regions(&map, &options, 2.5));
+        assert_eq!(running.len(), reference.len(), "round {round}");
+        for (a, b) in running.iter().zip(&reference) {
+            assert_eq!((a.centre, a.count), (b.centre, b.count), "round {round}");
+            assert!((a.omega - b.omega).abs() <= 1e-9, "round {round}");
+        }
+        // Collisions against brute force over the map's obstacles now.
+        let obstacles = Obstacles::from_gaussians(&map.gaussians, &options);
+        assert_eq!(grid.len(), obstacles.len(), "round {round}");
+        let points = query_points(30 + round as u64, &obstacles, &model);
+        assert_eq!(
+            grid.check(&points),
+            brute_force(&model, &obstacles, &points),
+            "round {round}"
+        );
+        // Counts against a counter built afresh from the map's classes.
+        let summary = MapSummary {
+            stats,
+            lo: [0.0; 3],
+            hi: [0.0; 3],
+        };
+        let classes: Vec<UncertaintyClass> = (0..map.len())
+            .map(|i| {
+                if options.includes(&map.gaussians.means[i]) {
+                    summary.class_of(map.uncertainty[i])
+                } else {
+                    UncertaintyClass::Excluded
+                }
+            })
+            .collect();
+        let fresh_counter =
+            ViewCounter::from_classes(&map.gaussians.means, &classes, CameraMount::default(), 1.0);
+        for k in 0..40 {
+            let s = State {
+                x: edit_rng.gen_range(-6.0..6.0),
+                y: edit_rng.gen_range(-6.0..6.0),
+                theta: edit_rng.gen_range(-3.2..3.2),
+            };
+            let count = counter.count(&s);
+            assert_eq!(count, fresh_counter.count(&s), "round {round} state {k}");
+            assert_eq!(
+                count,
+                counter.count_brute_force(&s),
+                "round {round} state {k}"
+            );
+        }
+
+        // Edit the map as a mapping step would, and then some.
+        let n = map.len();
+        for i in (round..n).step_by(9) {
+            map.gaussians.means[i][0] += edit_rng.gen_range(-0.3..0.3);
+        }
+        for i in (round..n).step_by(5) {
+            map.uncertainty[i] = edit_rng.gen_range(0.0..2e-3);
+        }
+        for i in (round..n).step_by(97) {
+            map.gaussians.means[i][2] = if map.gaussians.means[i][2] < 0.05 {
+                1.0
+            } else {
+                0.0
+            };
+        }
+        let (mut g, mut u) = (std::mem::take(&mut map.gaussians), Vec::new());
+        random_gaussians(&mut g, &mut u, 300);
+        map.gaussians = g;
+        map.adopt_new_gaussians();
+        let grown = map.len();
+        map.uncertainty[n..grown].copy_from_slice(&u);
+        if round % 2 == 1 {
+            // A prune: every 7th Gaussian goes, renumbering the rest. Only they are reported.
+            let keep: Vec<bool> = (0..map.len()).map(|i| i % 7 != round).collect();
+            let gone = (0..map.len())
+                .filter(|i| !keep[*i] && options.includes(&map.gaussians.means[*i]))
+                .count();
+            mirror.sync(&map, &options, &mut changes);
+            grid.apply(&changes);
+            tally.apply(&changes);
+            counter.apply(&changes);
+            map.retain(&keep);
+            mirror.sync(&map, &options, &mut changes);
+            assert_eq!(
+                changes.len(),
+                gone,
+                "round {round}: a prune reported more than it removed"
+            );
+            grid.apply(&changes);
+            tally.apply(&changes);
+            counter.apply(&changes);
+        }
+    }
 }

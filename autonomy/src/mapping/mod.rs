@@ -265,7 +265,7 @@ impl Mapper {
             &self.config.densify,
         );
         drop(rendered);
-        self.map.uncertainty.resize(self.map.len(), 0.0);
+        self.map.adopt_new_gaussians();
 
         // Choose the views: the frame, then the keyframes that see most of it.
         let points = keyframes::sample_points(frame, &camera);

@@ -3,9 +3,10 @@
 //! reference; [`CollisionGrid`] gives the same answers from a uniform 3-D hash grid that is
 //! kept in sync with the map incrementally.
 
+use super::lattice::{Lattice, OVERFLOW};
+use super::mirror::{Change, Record};
 use crate::gaussians::Gaussians;
 use crate::map::ClassifyOptions;
-use std::collections::HashMap;
 
 /// The robot as the collision check sees it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -110,160 +111,221 @@ pub fn brute_force(
         .collect()
 }
 
-type Cell = [i32; 3];
+/// The obstacles of one grid cell (structure of arrays, unordered).
+#[derive(Debug, Clone, Default)]
+struct GridCell {
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+    radius: Vec<f32>,
+    slots: Vec<u32>,
+}
 
-/// A uniform 3-D hash grid over obstacle means. Obstacles up to `radius_cap` live in the cell
-/// of their mean (cell side = r_robot + lambda_g radius_cap, so a query reads the 27 cells
-/// around its point); larger ones sit in a short list checked against every query.
+impl GridCell {
+    fn push(&mut self, slot: u32, mean: [f32; 3], radius: f32) -> u32 {
+        self.x.push(mean[0]);
+        self.y.push(mean[1]);
+        self.z.push(mean[2]);
+        self.radius.push(radius);
+        self.slots.push(slot);
+        (self.slots.len() - 1) as u32
+    }
+
+    /// Removes the obstacle at `k`; returns the slot moved into its place, if any.
+    fn swap_remove(&mut self, k: usize) -> Option<u32> {
+        self.x.swap_remove(k);
+        self.y.swap_remove(k);
+        self.z.swap_remove(k);
+        self.radius.swap_remove(k);
+        self.slots.swap_remove(k);
+        self.slots.get(k).copied()
+    }
+
+    /// Whether `p` collides with any obstacle here: [`CollisionModel::collides`] over every
+    /// member without branches, so it vectorises.
+    fn any_collides(&self, model: &CollisionModel, p: [f32; 3]) -> bool {
+        let mut hit = false;
+        let points = self.x.iter().zip(&self.y).zip(&self.z);
+        for (((x, y), z), r) in points.zip(&self.radius) {
+            let reach = model.robot_radius + model.gaussian_scale * r;
+            let d = [p[0] - x, p[1] - y, p[2] - z];
+            hit |= d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < reach * reach;
+        }
+        hit
+    }
+}
+
+/// A uniform 3-D grid over obstacle means, by slot (see [`super::mirror`]), on a lattice
+/// anchored at the world origin. Obstacles up to `radius_cap` live in the cell of their mean
+/// (cell side = r_robot + lambda_g radius_cap, so a query reads the 27 cells around its
+/// point); larger ones sit in the overflow cell, which every query reads.
 #[derive(Debug, Clone)]
 pub struct CollisionGrid {
     model: CollisionModel,
-    cell: f32,
     radius_cap: f32,
-    cells: HashMap<Cell, Vec<u32>>,
-    /// Where each obstacle is filed: its cell, or None for the oversize list.
-    filed: Vec<Option<Cell>>,
-    oversize: Vec<u32>,
-    means: Vec<[f32; 3]>,
-    radii: Vec<f32>,
+    lattice: Lattice<GridCell>,
+    /// Per slot: the cell and the position in it ([`NOWHERE`] when not filed).
+    located: Vec<(u32, u32)>,
+    count: usize,
 }
 
-/// What one [`CollisionGrid::sync`] did.
+/// `located` of a slot with no obstacle.
+const NOWHERE: (u32, u32) = (u32::MAX, 0);
+
+/// What one [`CollisionGrid::apply`] or [`CollisionGrid::sync`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct SyncReport {
     /// Obstacles filed for the first time.
     pub inserted: usize,
     /// Obstacles that changed cell (or list).
     pub moved: usize,
-    /// Obstacles dropped from the end.
+    /// Obstacles dropped.
     pub removed: usize,
 }
 
 impl CollisionGrid {
-    /// An empty grid for `model`; obstacles wider than `radius_cap` go to the oversize list.
+    /// An empty grid for `model`; obstacles wider than `radius_cap` go to the overflow cell.
     pub fn new(model: CollisionModel, radius_cap: f32) -> Self {
         CollisionGrid {
             model,
-            cell: model.robot_radius + model.gaussian_scale * radius_cap,
             radius_cap,
-            cells: HashMap::new(),
-            filed: Vec::new(),
-            oversize: Vec::new(),
-            means: Vec::new(),
-            radii: Vec::new(),
+            lattice: Lattice::new(model.robot_radius + model.gaussian_scale * radius_cap),
+            located: Vec::new(),
+            count: 0,
         }
     }
 
-    fn cell_of(&self, p: [f32; 3]) -> Cell {
-        p.map(|v| (v / self.cell).floor() as i32)
-    }
-
-    fn unfile(&mut self, i: usize) {
-        match self.filed[i] {
-            Some(c) => {
-                if let Some(list) = self.cells.get_mut(&c) {
-                    if let Some(k) = list.iter().position(|j| *j as usize == i) {
-                        list.swap_remove(k);
-                    }
-                    if list.is_empty() {
-                        self.cells.remove(&c);
-                    }
-                }
-            }
-            None => {
-                if let Some(k) = self.oversize.iter().position(|j| *j as usize == i) {
-                    self.oversize.swap_remove(k);
-                }
-            }
+    fn remove(&mut self, slot: u32) -> bool {
+        let s = slot as usize;
+        let Some(&(c, k)) = self.located.get(s).filter(|l| **l != NOWHERE) else {
+            return false;
+        };
+        self.located[s] = NOWHERE;
+        if let Some(moved) = self.lattice.get_mut(c).swap_remove(k as usize) {
+            self.located[moved as usize].1 = k;
         }
+        self.count -= 1;
+        true
     }
 
-    fn file(&mut self, i: usize) -> Option<Cell> {
-        if self.radii[i] > self.radius_cap {
-            self.oversize.push(i as u32);
-            None
+    fn insert(&mut self, slot: u32, mean: [f32; 3], radius: f32) {
+        let c = if radius > self.radius_cap {
+            OVERFLOW
         } else {
-            let c = self.cell_of(self.means[i]);
-            self.cells.entry(c).or_default().push(i as u32);
-            Some(c)
+            self.lattice.cell_for(mean)
+        };
+        let k = self.lattice.get_mut(c).push(slot, mean, radius);
+        let s = slot as usize;
+        if s >= self.located.len() {
+            self.located.resize(s + 1, NOWHERE);
         }
+        self.located[s] = (c, k);
+        self.count += 1;
     }
 
-    /// Brings the grid up to date with `obstacles`, touching only what changed: new
-    /// obstacles are filed, ones that left their cell are moved, ones past the new end are
-    /// dropped. (Indices are positions in `obstacles`; after a map prune that reorders them,
-    /// most obstacles change index and the sync costs about a rebuild.)
-    pub fn sync(&mut self, obstacles: &Obstacles) -> SyncReport {
+    /// What slot `slot` holds: (mean, radius).
+    fn filed(&self, slot: usize) -> Option<([f32; 3], f32)> {
+        let &(c, k) = self.located.get(slot).filter(|l| **l != NOWHERE)?;
+        let (cell, k) = (self.lattice.get(c), k as usize);
+        Some(([cell.x[k], cell.y[k], cell.z[k]], cell.radius[k]))
+    }
+
+    /// Applies the mirror's changes, touching only the slots they name.
+    pub fn apply(&mut self, changes: &[Change]) -> SyncReport {
         let mut report = SyncReport::default();
-        let n = obstacles.len();
-        while self.filed.len() > n {
-            let i = self.filed.len() - 1;
-            self.unfile(i);
-            self.filed.pop();
-            self.means.pop();
-            self.radii.pop();
-            report.removed += 1;
-        }
-        for i in 0..self.filed.len() {
-            let (m, r) = (obstacles.means[i], obstacles.radii[i]);
-            if m == self.means[i] && r == self.radii[i] {
-                continue;
-            }
-            let old = self.filed[i];
-            self.means[i] = m;
-            self.radii[i] = r;
-            let new = if r > self.radius_cap {
-                None
-            } else {
-                Some(self.cell_of(m))
-            };
-            if new != old {
-                self.unfile(i);
-                self.filed[i] = self.file(i);
-                report.moved += 1;
+        for c in changes.iter() {
+            if c.new.is_none() && self.remove(c.slot) {
+                report.removed += 1;
             }
         }
-        for i in self.filed.len()..n {
-            self.means.push(obstacles.means[i]);
-            self.radii.push(obstacles.radii[i]);
-            let c = self.file(i);
-            self.filed.push(c);
-            report.inserted += 1;
+        self.lattice.cover_points(
+            changes
+                .iter()
+                .filter_map(|c| c.new.as_ref().map(|r| &r.mean)),
+        );
+        for c in changes.iter() {
+            if let Some(r) = c.new {
+                if self.remove(c.slot) {
+                    report.moved += 1;
+                } else {
+                    report.inserted += 1;
+                }
+                self.insert(c.slot, r.mean, r.radius);
+            }
         }
         report
     }
 
+    /// Brings the grid up to date with `obstacles`, obstacle i in slot i, touching only what
+    /// changed (for callers that keep an [`Obstacles`] list rather than a mirror).
+    pub fn sync(&mut self, obstacles: &Obstacles) -> SyncReport {
+        let n = obstacles.len();
+        let mut changes = Vec::new();
+        for (i, (m, r)) in obstacles.means.iter().zip(&obstacles.radii).enumerate() {
+            if self.filed(i) != Some((*m, *r)) {
+                changes.push(Change {
+                    slot: i as u32,
+                    old: None,
+                    new: Some(Record {
+                        mean: *m,
+                        radius: *r,
+                        uncertainty: 0.0,
+                    }),
+                });
+            }
+        }
+        for slot in n..self.located.len() {
+            changes.push(Change {
+                slot: slot as u32,
+                old: None,
+                new: None,
+            });
+        }
+        self.apply(&changes)
+    }
+
     /// Obstacles filed.
     pub fn len(&self) -> usize {
-        self.filed.len()
+        self.count
     }
 
     /// Whether the grid is empty.
     pub fn is_empty(&self) -> bool {
-        self.filed.is_empty()
+        self.count == 0
+    }
+
+    /// The cells a query at `p` reads: its own first (where a hit is likeliest), then its
+    /// 26 neighbours, then the overflow cell.
+    fn cells_around(&self, p: [f32; 3]) -> impl Iterator<Item = &GridCell> {
+        let c = self.lattice.key(p);
+        const AROUND: [i32; 3] = [0, -1, 1];
+        AROUND
+            .iter()
+            .flat_map(|dz| AROUND.iter().map(move |dy| (*dz, *dy)))
+            .flat_map(|(dz, dy)| AROUND.iter().map(move |dx| [*dx, dy, dz]))
+            .filter_map(move |d| self.lattice.find([c[0] + d[0], c[1] + d[1], c[2] + d[2]]))
+            .map(|k| self.lattice.get(k))
+            .chain(std::iter::once(self.lattice.overflow()))
     }
 
     /// Whether `p` collides with any obstacle.
     pub fn point_collides(&self, p: [f32; 3]) -> bool {
-        let c = self.cell_of(p);
-        for dz in -1..=1 {
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    if let Some(list) = self.cells.get(&[c[0] + dx, c[1] + dy, c[2] + dz]) {
-                        for &j in list {
-                            let j = j as usize;
-                            if self.model.collides(p, self.means[j], self.radii[j]) {
-                                return true;
-                            }
-                        }
-                    }
+        self.cells_around(p)
+            .any(|cell| cell.any_collides(&self.model, p))
+    }
+
+    /// The means of every obstacle `p` collides with.
+    pub fn colliding_means(&self, p: [f32; 3]) -> Vec<[f32; 3]> {
+        let mut means = Vec::new();
+        for cell in self.cells_around(p) {
+            for k in 0..cell.slots.len() {
+                let m = [cell.x[k], cell.y[k], cell.z[k]];
+                if self.model.collides(p, m, cell.radius[k]) {
+                    means.push(m);
                 }
             }
         }
-        self.oversize.iter().any(|&j| {
-            self.model
-                .collides(p, self.means[j as usize], self.radii[j as usize])
-        })
+        means
     }
 
     /// Per point: does it collide?

@@ -2,8 +2,9 @@
 //! odometry and viewpoint nodes, Dijkstra from the robot, and the guidance path with the best
 //! Omega / e^d.
 
-use crate::map::{ClassifyOptions, GaussianMap, MapSummary, CHUNK};
+use crate::map::{ClassifyOptions, GaussianMap};
 use crate::math::TotalF64;
+use std::collections::BTreeMap;
 
 /// Viewpoints this close to the last plan's target count as the same target, metres.
 pub const KEEP_RADIUS: f64 = 0.5;
@@ -19,68 +20,24 @@ pub struct Region {
     pub omega: f64,
 }
 
-/// Cuts the bounding box of the map's (non-ground) Gaussians into cubes of side `size` and
-/// gives each occupied one its mean uncertainty.
+/// The map's (non-ground) Gaussians by cube of side `size` of a lattice anchored at the
+/// world origin, each occupied cube with its mean uncertainty, z-major. One pass over the
+/// map: the reference the planner's running [`super::tally::Tally`] is checked against.
 pub fn regions(map: &GaussianMap, options: &ClassifyOptions, size: f64) -> Vec<Region> {
-    regions_within(map, options, size, &map.summary(options))
-}
-
-/// [`regions`] over the bounds of a [`MapSummary`] already computed, in parallel chunks
-/// summed in a fixed order (the same answer whatever the threads).
-pub fn regions_within(
-    map: &GaussianMap,
-    options: &ClassifyOptions,
-    size: f64,
-    summary: &MapSummary,
-) -> Vec<Region> {
-    use rayon::prelude::*;
-    if summary.stats.count == 0 {
-        return Vec::new();
-    }
-    let g = &map.gaussians;
-    let lo = summary.lo.map(f64::from);
-    let hi = summary.hi.map(f64::from);
-    let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / size).floor() as usize + 1);
-    let cells = dims[0] * dims[1] * dims[2];
-    let partial: Vec<Vec<(f64, usize)>> = g
-        .means
-        .par_chunks(CHUNK)
-        .zip(map.uncertainty.par_chunks(CHUNK))
-        .map(|(means, uncertainty)| {
-            let mut sums = vec![(0.0f64, 0usize); cells];
-            for (m, u) in means.iter().zip(uncertainty) {
-                if options.includes(m) {
-                    let k = [0, 1, 2]
-                        .map(|a| (((f64::from(m[a]) - lo[a]) / size) as usize).min(dims[a] - 1));
-                    let e = &mut sums[(k[2] * dims[1] + k[1]) * dims[0] + k[0]];
-                    e.0 += f64::from(*u);
-                    e.1 += 1;
-                }
-            }
-            sums
-        })
-        .collect();
-    let mut sums = vec![(0.0f64, 0usize); cells];
-    for part in partial {
-        for (s, p) in sums.iter_mut().zip(part) {
-            s.0 += p.0;
-            s.1 += p.1;
+    let mut sums: BTreeMap<[i64; 3], (f64, usize)> = BTreeMap::new();
+    for (m, u) in map.gaussians.means.iter().zip(&map.uncertainty) {
+        if options.includes(m) {
+            let k = |v: f32| (f64::from(v) / size).floor() as i64;
+            let e = sums.entry([k(m[2]), k(m[1]), k(m[0])]).or_insert((0.0, 0));
+            e.0 += f64::from(*u);
+            e.1 += 1;
         }
     }
     sums.into_iter()
-        .enumerate()
-        .filter(|(_, (_, count))| *count > 0)
-        .map(|(j, (sum, count))| {
-            let k = [
-                j % dims[0],
-                (j / dims[0]) % dims[1],
-                j / (dims[0] * dims[1]),
-            ];
-            Region {
-                centre: [0, 1, 2].map(|a| lo[a] + (k[a] as f64 + 0.5) * size),
-                count,
-                omega: sum / count as f64,
-            }
+        .map(|(k, (sum, count))| Region {
+            centre: [k[2], k[1], k[0]].map(|k| (k as f64 + 0.5) * size),
+            count,
+            omega: sum / count as f64,
         })
         .collect()
 }

@@ -1,12 +1,18 @@
 //! Information of a viewpoint (DESIGN.md): xi = #high-uncertainty Gaussians in view -
 //! lambda_xi #low-uncertainty ones, "in view" meaning inside the camera frustum and within
-//! the sensor range (planar depth), no occlusion test. A dense 3-D grid of per-cell counts
-//! answers it exactly: cells wholly inside the view add their counts, cells on the boundary
-//! test their members one by one.
+//! the sensor range (planar depth), no occlusion test. A dense 3-D grid of cells answers it
+//! exactly: cells wholly inside the view add their counts, cells on the boundary test their
+//! members one by one.
+//!
+//! The grid follows the mirror's changes and keeps each cell's members sorted by
+//! uncertainty, so the high / low thresholds, which move with every mapping step, are
+//! applied per cell by two binary searches instead of by refiling the map.
 
+use super::lattice::{Lattice, OVERFLOW};
+use super::mirror::{Change, Record};
 use super::unicycle::State;
 use crate::camera::Intrinsics;
-use crate::map::UncertaintyClass;
+use crate::map::{UncertaintyClass, UncertaintyStats};
 
 /// Where the camera sits on the robot.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -64,127 +70,308 @@ impl View {
         }
     }
 
-    #[inline]
-    fn sees(&self, p: [f32; 3]) -> bool {
-        let d = [
-            p[0] - self.centre[0],
-            p[1] - self.centre[1],
-            p[2] - self.centre[2],
-        ];
-        let z = d[0] * self.forward[0] + d[1] * self.forward[1];
-        if z <= 0.0 || z > self.range {
-            return false;
-        }
+    /// Whether the point (x, y, z) is in view. Branch-free, so loops over members vectorise.
+    #[inline(always)]
+    fn sees(&self, x: f32, y: f32, z: f32) -> bool {
+        let d = [x - self.centre[0], y - self.centre[1], z - self.centre[2]];
+        let depth = d[0] * self.forward[0] + d[1] * self.forward[1];
         // Optical x points right: (sin, -cos); optical y points down: -world z.
-        let x = d[0] * self.forward[1] - d[1] * self.forward[0];
+        let right = d[0] * self.forward[1] - d[1] * self.forward[0];
         let up = d[2];
-        x.abs() <= self.half_x * z && up <= self.half_y_up * z && -up <= self.half_y_down * z
+        (depth > 0.0)
+            & (depth <= self.range)
+            & (right.abs() <= self.half_x * depth)
+            & (up <= self.half_y_up * depth)
+            & (-up <= self.half_y_down * depth)
     }
 }
 
-/// Per-cell counts of high and low Gaussians, and their members for boundary cells.
+/// The members of one cell (structure of arrays, unordered).
+#[derive(Debug, Clone, Default)]
+struct CellMembers {
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
+    uncertainty: Vec<f32>,
+    slots: Vec<u32>,
+}
+
+/// What a view needs of a cell before reading its members, packed apart from them so the
+/// scan over the cells under a view stays in cache: a box around the members (tighter than
+/// the cell: Gaussians lie on surfaces, so more cells fall wholly inside or outside a view)
+/// and the high and low counts under the current thresholds. The box grows with each member
+/// that joins and is tightened again only once half the members have left since.
+#[derive(Debug, Clone, Copy)]
+struct CellSummary {
+    lo: [f32; 3],
+    hi: [f32; 3],
+    high: u32,
+    low: u32,
+    /// Members that left since the box was last tightened.
+    stale: u32,
+    /// In this apply's list of boxes to tighten.
+    queued: bool,
+}
+
+impl Default for CellSummary {
+    fn default() -> Self {
+        CellSummary {
+            lo: [f32::MAX; 3],
+            hi: [f32::MIN; 3],
+            high: 0,
+            low: 0,
+            stale: 0,
+            queued: false,
+        }
+    }
+}
+
+/// Padding of a cell's box, metres: keeps float rounding from calling a member on the box's
+/// face inside a view its own test puts outside.
+const BOX_PAD: f32 = 1e-3;
+
+/// (is high, is low) of uncertainty `u`, as counts.
+#[inline]
+fn class(u: f32, low_below: f32, high_above: f32) -> (u32, u32) {
+    (u32::from(u > high_above), u32::from(u < low_below))
+}
+
+impl CellMembers {
+    fn len(&self) -> usize {
+        self.slots.len()
+    }
+
+    fn push(&mut self, slot: u32, r: &Record) -> u32 {
+        self.x.push(r.mean[0]);
+        self.y.push(r.mean[1]);
+        self.z.push(r.mean[2]);
+        self.uncertainty.push(r.uncertainty);
+        self.slots.push(slot);
+        (self.slots.len() - 1) as u32
+    }
+
+    /// Removes the member at `k`; returns the slot moved into its place, if any.
+    fn swap_remove(&mut self, k: usize) -> Option<u32> {
+        self.x.swap_remove(k);
+        self.y.swap_remove(k);
+        self.z.swap_remove(k);
+        self.uncertainty.swap_remove(k);
+        self.slots.swap_remove(k);
+        self.slots.get(k).copied()
+    }
+
+    /// (#high, #low) members.
+    fn counts(&self, low_below: f32, high_above: f32) -> (u32, u32) {
+        let (mut high, mut low) = (0u32, 0u32);
+        for u in &self.uncertainty {
+            let (h, l) = class(*u, low_below, high_above);
+            high += h;
+            low += l;
+        }
+        (high, low)
+    }
+
+    /// The tight box around the members.
+    fn bounds(&self) -> ([f32; 3], [f32; 3]) {
+        let extent = |v: &[f32]| {
+            v.iter()
+                .fold((f32::MAX, f32::MIN), |(lo, hi), x| (lo.min(*x), hi.max(*x)))
+        };
+        let e = [extent(&self.x), extent(&self.y), extent(&self.z)];
+        (e.map(|b| b.0), e.map(|b| b.1))
+    }
+
+    /// (#high, #low) of the members `view` sees.
+    fn count_seen(&self, view: &View, low_below: f32, high_above: f32) -> (u32, u32) {
+        let (mut high, mut low) = (0u32, 0u32);
+        let points = self.x.iter().zip(&self.y).zip(&self.z);
+        for (((x, y), z), u) in points.zip(&self.uncertainty) {
+            let seen = view.sees(*x, *y, *z);
+            high += u32::from(seen & (*u > high_above));
+            low += u32::from(seen & (*u < low_below));
+        }
+        (high, low)
+    }
+}
+
+/// Per-cell members of the map's Gaussians on a lattice anchored at the world origin, with
+/// counts of the high and low ones under the current thresholds.
 #[derive(Debug, Clone)]
 pub struct ViewCounter {
-    origin: [f32; 3],
-    cell: f32,
-    dims: [usize; 3],
-    high: Vec<u32>,
-    low: Vec<u32>,
-    starts: Vec<u32>,
-    members: Vec<([f32; 3], bool)>,
+    lattice: Lattice<CellMembers>,
+    /// Per cell id (the overflow cell has none: it is always read member by member).
+    summaries: Vec<CellSummary>,
+    /// Per slot: the cell and the position in it ([`NOWHERE`] when not filed).
+    located: Vec<(u32, u32)>,
+    low_below: f32,
+    high_above: f32,
+    members: usize,
     mount: CameraMount,
     /// lambda_xi.
     pub low_weight: f64,
 }
 
+/// `located` of a slot with no member.
+const NOWHERE: (u32, u32) = (u32::MAX, 0);
+
 impl ViewCounter {
-    /// Files every high and low Gaussian (others do not count) in cells of side `cell`.
-    pub fn new(
+    /// An empty counter with cells of side `cell` metres; nothing is high or low until
+    /// [`ViewCounter::set_stats`] or [`ViewCounter::set_thresholds`].
+    pub fn new(mount: CameraMount, cell: f32) -> Self {
+        ViewCounter {
+            lattice: Lattice::new(cell),
+            summaries: Vec::new(),
+            located: Vec::new(),
+            low_below: f32::NEG_INFINITY,
+            high_above: f32::INFINITY,
+            members: 0,
+            mount,
+            low_weight: 1.0,
+        }
+    }
+
+    /// A counter over `means` already classified (Excluded and Other ones are filed but never
+    /// count), for callers without a mirror.
+    pub fn from_classes(
         means: &[[f32; 3]],
         classes: &[UncertaintyClass],
         mount: CameraMount,
         cell: f32,
     ) -> Self {
-        let mut counter = ViewCounter {
-            origin: [0.0; 3],
-            cell,
-            dims: [1; 3],
-            high: Vec::new(),
-            low: Vec::new(),
-            starts: Vec::new(),
-            members: Vec::new(),
-            mount,
-            low_weight: 1.0,
-        };
-        counter.rebuild(means, classes);
+        let changes: Vec<Change> = means
+            .iter()
+            .zip(classes)
+            .enumerate()
+            .filter(|(_, (_, c))| **c != UncertaintyClass::Excluded)
+            .map(|(i, (m, c))| Change {
+                slot: i as u32,
+                old: None,
+                new: Some(Record {
+                    mean: *m,
+                    radius: 0.0,
+                    uncertainty: match c {
+                        UncertaintyClass::High => 1.0,
+                        UncertaintyClass::Low => -1.0,
+                        _ => 0.0,
+                    },
+                }),
+            })
+            .collect();
+        let mut counter = ViewCounter::new(mount, cell);
+        counter.apply(&changes);
+        counter.set_thresholds(-0.5, 0.5);
         counter
     }
 
-    /// Refiles for a new map, reusing the buffers (a plan over 3e6 Gaussians would otherwise
-    /// spend most of its time on the kernel zeroing fresh pages).
-    pub fn rebuild(&mut self, means: &[[f32; 3]], classes: &[UncertaintyClass]) {
-        let counted =
-            |c: &UncertaintyClass| matches!(c, UncertaintyClass::High | UncertaintyClass::Low);
-        let mut lo = [f32::MAX; 3];
-        let mut hi = [f32::MIN; 3];
-        let mut any = false;
-        for (m, c) in means.iter().zip(classes) {
-            if counted(c) {
-                any = true;
-                for a in 0..3 {
-                    lo[a] = lo[a].min(m[a]);
-                    hi[a] = hi[a].max(m[a]);
+    /// Gaussians filed.
+    pub fn len(&self) -> usize {
+        self.members
+    }
+
+    /// Whether none are filed.
+    pub fn is_empty(&self) -> bool {
+        self.members == 0
+    }
+
+    /// Applies the mirror's changes: members leave and join their cells, whose counts and
+    /// boxes follow.
+    pub fn apply(&mut self, changes: &[Change]) {
+        let (low_below, high_above) = (self.low_below, self.high_above);
+        let mut loose: Vec<u32> = Vec::new();
+        for change in changes.iter().filter(|c| c.old.is_some()) {
+            let s = change.slot as usize;
+            let Some(&(c, k)) = self.located.get(s).filter(|l| **l != NOWHERE) else {
+                continue;
+            };
+            self.located[s] = NOWHERE;
+            let cell = self.lattice.get_mut(c);
+            let (h, l) = class(cell.uncertainty[k as usize], low_below, high_above);
+            let moved = cell.swap_remove(k as usize);
+            let left = cell.len() as u32;
+            if let Some(m) = moved {
+                self.located[m as usize].1 = k;
+            }
+            self.members -= 1;
+            if c != OVERFLOW {
+                let summary = &mut self.summaries[c as usize];
+                summary.high -= h;
+                summary.low -= l;
+                summary.stale += 1;
+                if summary.stale >= left.max(1) && !summary.queued {
+                    summary.queued = true;
+                    loose.push(c);
                 }
             }
         }
-        if !any {
-            lo = [0.0; 3];
-            hi = [0.0; 3];
-        }
-        let cell = self.cell;
-        let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / cell).floor() as usize + 1);
-        let n = dims[0] * dims[1] * dims[2];
-        let index = |m: &[f32; 3]| {
-            let c = [0, 1, 2].map(|a| (((m[a] - lo[a]) / cell) as usize).min(dims[a] - 1));
-            (c[2] * dims[1] + c[1]) * dims[0] + c[0]
-        };
-        self.high.clear();
-        self.high.resize(n, 0);
-        self.low.clear();
-        self.low.resize(n, 0);
-        self.starts.clear();
-        self.starts.resize(n + 1, 0);
-        for (m, c) in means.iter().zip(classes) {
-            match c {
-                UncertaintyClass::High => self.high[index(m)] += 1,
-                UncertaintyClass::Low => self.low[index(m)] += 1,
-                _ => {}
+        self.lattice.cover_points(
+            changes
+                .iter()
+                .filter_map(|c| c.new.as_ref().map(|r| &r.mean)),
+        );
+        for change in changes {
+            let Some(new) = &change.new else {
+                continue;
+            };
+            let c = self.lattice.cell_for(new.mean);
+            let k = self.lattice.get_mut(c).push(change.slot, new);
+            let s = change.slot as usize;
+            if s >= self.located.len() {
+                self.located.resize(s + 1, NOWHERE);
+            }
+            self.located[s] = (c, k);
+            self.members += 1;
+            if c != OVERFLOW {
+                let c = c as usize;
+                if c >= self.summaries.len() {
+                    self.summaries.resize(c + 1, CellSummary::default());
+                }
+                let summary = &mut self.summaries[c];
+                let (h, l) = class(new.uncertainty, low_below, high_above);
+                summary.high += h;
+                summary.low += l;
+                for a in 0..3 {
+                    summary.lo[a] = summary.lo[a].min(new.mean[a]);
+                    summary.hi[a] = summary.hi[a].max(new.mean[a]);
+                }
             }
         }
-        for i in 0..n {
-            self.starts[i + 1] = self.starts[i] + self.high[i] + self.low[i];
+        // Boxes that half their members have left since they were last tight.
+        for c in loose {
+            let summary = &mut self.summaries[c as usize];
+            (summary.lo, summary.hi) = self.lattice.get(c).bounds();
+            summary.stale = 0;
+            summary.queued = false;
         }
-        let mut cursor = self.starts.clone();
-        self.members.clear();
-        self.members
-            .resize(self.starts[n] as usize, ([0.0; 3], false));
-        for (m, c) in means.iter().zip(classes) {
-            if counted(c) {
-                let i = index(m);
-                self.members[cursor[i] as usize] = (*m, *c == UncertaintyClass::High);
-                cursor[i] += 1;
-            }
+    }
+
+    /// High is above `high_above`, low below `low_below` (metres of uncertainty).
+    pub fn set_thresholds(&mut self, low_below: f32, high_above: f32) {
+        if low_below.to_bits() == self.low_below.to_bits()
+            && high_above.to_bits() == self.high_above.to_bits()
+        {
+            return;
         }
-        self.origin = lo;
-        self.dims = dims;
+        self.low_below = low_below;
+        self.high_above = high_above;
+        for (cell, summary) in self.lattice.cells().iter().zip(&mut self.summaries) {
+            (summary.high, summary.low) = cell.counts(low_below, high_above);
+        }
+    }
+
+    /// RT-GuIDE's thresholds (as [`crate::map::MapSummary::class_of`]): more than half a
+    /// standard deviation above the mean is high, below it low.
+    pub fn set_stats(&mut self, stats: &UncertaintyStats) {
+        let half = 0.5 * stats.std;
+        self.set_thresholds(stats.mean - half, stats.mean + half);
     }
 
     /// (#high, #low) in view from robot state `s`.
     pub fn count(&self, s: &State) -> (u32, u32) {
-        if self.members.is_empty() {
-            return (0, 0);
-        }
         let view = View::new(&self.mount, s);
+        let (mut high, mut low) =
+            self.lattice
+                .overflow()
+                .count_seen(&view, self.low_below, self.high_above);
         let (f, c) = (view.forward, view.centre);
         let right = [f[1], -f[0]];
         // The view's six half-spaces as (normal, offset): inside when n . (p - c) + o > 0.
@@ -222,50 +409,42 @@ impl ViewCounter {
                 c[1] + view.range * (f[1] - view.half_x * right[1]),
             ],
         ];
-        let span = |a: usize, lo: f32, hi: f32| -> Option<(usize, usize)> {
-            let l = ((lo - self.origin[a]) / self.cell).floor();
-            let h = ((hi - self.origin[a]) / self.cell).floor();
-            if h < 0.0 || l > (self.dims[a] - 1) as f32 {
-                return None;
-            }
-            Some((l.max(0.0) as usize, (h as usize).min(self.dims[a] - 1)))
-        };
         let fold = |a: usize| {
             far.iter().fold((f32::MAX, f32::MIN), |(lo, hi), p| {
                 (lo.min(p[a]), hi.max(p[a]))
             })
         };
         let ((xl, xh), (yl, yh)) = (fold(0), fold(1));
+        let l = &self.lattice;
         let (Some((x0, x1)), Some((y0, y1)), Some((z0, z1))) = (
-            span(0, xl, xh),
-            span(1, yl, yh),
-            span(
+            l.span(0, xl, xh),
+            l.span(1, yl, yh),
+            l.span(
                 2,
                 c[2] - view.half_y_down * view.range,
                 c[2] + view.half_y_up * view.range,
             ),
         ) else {
-            return (0, 0);
+            return (high, low);
         };
-        let half = 0.5 * self.cell;
-        let (mut high, mut low) = (0u32, 0u32);
         for cz in z0..=z1 {
             for cy in y0..=y1 {
                 for cx in x0..=x1 {
-                    let i = (cz * self.dims[1] + cy) * self.dims[0] + cx;
-                    if self.high[i] + self.low[i] == 0 {
+                    let Some(k) = l.find([cx, cy, cz]) else {
+                        continue;
+                    };
+                    let cell = &self.summaries[k as usize];
+                    if cell.high + cell.low == 0 {
                         continue;
                     }
-                    let centre = [
-                        self.origin[0] + (cx as f32 + 0.5) * self.cell - c[0],
-                        self.origin[1] + (cy as f32 + 0.5) * self.cell - c[1],
-                        self.origin[2] + (cz as f32 + 0.5) * self.cell - c[2],
-                    ];
+                    let centre = [0, 1, 2].map(|a| 0.5 * (cell.lo[a] + cell.hi[a]) - c[a]);
+                    let half = [0, 1, 2].map(|a| 0.5 * (cell.hi[a] - cell.lo[a]) + BOX_PAD);
                     let mut outside = false;
                     let mut inside = true;
                     for (n, o) in &planes {
                         let v = n[0] * centre[0] + n[1] * centre[1] + n[2] * centre[2] + o;
-                        let reach = half * (n[0].abs() + n[1].abs() + n[2].abs());
+                        let reach =
+                            n[0].abs() * half[0] + n[1].abs() * half[1] + n[2].abs() * half[2];
                         if v + reach < 0.0 {
                             outside = true;
                             break;
@@ -276,20 +455,13 @@ impl ViewCounter {
                         continue;
                     }
                     if inside {
-                        high += self.high[i];
-                        low += self.low[i];
+                        high += cell.high;
+                        low += cell.low;
                         continue;
                     }
-                    let range = self.starts[i] as usize..self.starts[i + 1] as usize;
-                    for (m, h) in &self.members[range] {
-                        if view.sees(*m) {
-                            if *h {
-                                high += 1;
-                            } else {
-                                low += 1;
-                            }
-                        }
-                    }
+                    let (h, l) = l.get(k).count_seen(&view, self.low_below, self.high_above);
+                    high += h;
+                    low += l;
                 }
             }
         }
@@ -302,19 +474,22 @@ impl ViewCounter {
         f64::from(h) - self.low_weight * f64::from(l)
     }
 
-    /// (#high, #low) in view by checking every counted Gaussian: the reference.
+    /// (#high, #low) in view by checking every filed Gaussian against the thresholds: the
+    /// reference.
     pub fn count_brute_force(&self, s: &State) -> (u32, u32) {
         let view = View::new(&self.mount, s);
-        self.members.iter().fold((0, 0), |(h, l), (m, is_high)| {
-            if view.sees(*m) {
-                if *is_high {
-                    (h + 1, l)
-                } else {
-                    (h, l + 1)
+        let (mut high, mut low) = (0, 0);
+        for cell in self.lattice.iter() {
+            for k in 0..cell.len() {
+                if view.sees(cell.x[k], cell.y[k], cell.z[k]) {
+                    if cell.uncertainty[k] > self.high_above {
+                        high += 1;
+                    } else if cell.uncertainty[k] < self.low_below {
+                        low += 1;
+                    }
                 }
-            } else {
-                (h, l)
             }
-        })
+        }
+        (high, low)
     }
 }

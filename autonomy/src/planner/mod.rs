@@ -8,16 +8,21 @@ pub mod collision;
 pub mod gpu_collision;
 pub mod graph;
 pub mod information;
+pub mod lattice;
+pub mod mirror;
 pub mod search;
+pub mod tally;
 pub mod unicycle;
 
 use crate::map::{ClassifyOptions, GaussianMap};
 use collision::{CollisionGrid, CollisionModel, Obstacles};
 use gpu_collision::GpuCollision;
-use graph::{local_goal, regions_within, TopologicalGraph, KEEP_RADIUS};
+use graph::{local_goal, TopologicalGraph, KEEP_RADIUS};
 use information::{CameraMount, ViewCounter};
+use mirror::{Change, MapMirror};
 use search::{search, SearchConfig};
 use std::time::Instant;
+use tally::Tally;
 use unicycle::{Control, State};
 
 /// Spacing of the collision samples along a viewpoint's edge, metres.
@@ -72,7 +77,9 @@ impl Default for PlannerConfig {
             mount: CameraMount::default(),
             classify: ClassifyOptions::default(),
             grid_radius_cap: 0.05,
-            information_cell: 0.5,
+            // With boxes fitted to each cell's members, 1 m scored 500 views fastest of
+            // 0.35 / 0.5 / 0.7 / 1 / 1.5 / 2 m (BENCHMARKS.md).
+            information_cell: 1.0,
         }
     }
 }
@@ -148,14 +155,21 @@ pub struct Plan {
     pub seconds: [f64; 3],
 }
 
-/// The planner and the state it keeps between plans (graph, collision grid).
+/// The planner and the state it keeps between plans: the graph, and its copy of the map with
+/// everything derived from it (collision grid, uncertainty tallies, counting grid), brought up
+/// to date from what changed.
 #[derive(Debug)]
 pub struct RtGuidePlanner {
     config: PlannerConfig,
     graph: TopologicalGraph,
+    mirror: MapMirror,
+    changes: Vec<Change>,
     grid: CollisionGrid,
+    tally: Tally,
+    counter: ViewCounter,
     engine: CollisionEngine,
-    /// Reused between plans: refilling is cheaper than allocating 3e6 entries anew.
+    /// The brute-force and GPU engines' list of every obstacle, refilled each plan (reused:
+    /// refilling is cheaper than allocating millions of entries anew).
     obstacles: Obstacles,
     /// The viewpoint the last plan headed for: kept while it scores at least half the best,
     /// so two similar viewpoints do not make the robot dither between them.
@@ -163,7 +177,6 @@ pub struct RtGuidePlanner {
     target_plans: usize,
     /// Targets the robot has reached.
     visited: Vec<[f64; 2]>,
-    counter: Option<ViewCounter>,
 }
 
 fn point(model: &CollisionModel, s: &State) -> [f32; 3] {
@@ -174,13 +187,18 @@ impl RtGuidePlanner {
     /// A planner with an empty graph.
     pub fn new(config: PlannerConfig, engine: CollisionEngine) -> Self {
         let grid = CollisionGrid::new(config.collision, config.grid_radius_cap);
+        let tally = Tally::new(config.region_size);
+        let counter = ViewCounter::new(config.mount, config.information_cell);
         RtGuidePlanner {
             config,
             graph: TopologicalGraph::default(),
+            mirror: MapMirror::new(),
+            changes: Vec::new(),
             grid,
+            tally,
+            counter,
             engine,
             obstacles: Obstacles::default(),
-            counter: None,
             target: None,
             target_plans: 0,
             visited: Vec::new(),
@@ -195,50 +213,54 @@ impl RtGuidePlanner {
     /// Plans from `robot` over `map`.
     pub fn plan(&mut self, map: &GaussianMap, robot: State) -> Result<Plan, PlanFailure> {
         let t0 = Instant::now();
-        let cfg = &self.config;
+        self.update(map);
         let mut obstacles = std::mem::take(&mut self.obstacles);
-        obstacles.refill(&map.gaussians, &cfg.classify);
-        let result = self.plan_with(map, robot, &obstacles, t0);
+        if !matches!(self.engine, CollisionEngine::Grid) {
+            obstacles.refill(&map.gaussians, &self.config.classify);
+        }
+        let result = self.plan_with(robot, &obstacles, t0);
         self.obstacles = obstacles;
         result
     }
 
+    /// Brings the copy of the map and everything derived from it up to date, touching only
+    /// the Gaussians that changed.
+    fn update(&mut self, map: &GaussianMap) {
+        self.mirror
+            .sync(map, &self.config.classify, &mut self.changes);
+        // The grid is kept whatever the engine, so a failing GPU can hand over at once.
+        self.grid.apply(&self.changes);
+        self.tally.apply(&self.changes);
+        self.counter.apply(&self.changes);
+        self.counter.set_stats(&self.tally.stats());
+    }
+
     fn plan_with(
         &mut self,
-        map: &GaussianMap,
         robot: State,
         obstacles: &Obstacles,
         t0: Instant,
     ) -> Result<Plan, PlanFailure> {
         let cfg = &self.config;
-        if obstacles.is_empty() {
+        if self.tally.count() == 0 {
             return Err(PlanFailure::EmptyMap);
         }
-        match &mut self.engine {
-            CollisionEngine::Grid => {
-                self.grid.sync(obstacles);
+        if let CollisionEngine::Gpu(gpu) = &mut self.engine {
+            if let Err(e) = gpu.upload(obstacles) {
+                tracing::warn!("GPU collision upload failed ({e}); using the grid");
+                self.engine = CollisionEngine::Grid;
             }
-            CollisionEngine::Gpu(gpu) => {
-                if let Err(e) = gpu.upload(obstacles) {
-                    tracing::warn!("GPU collision upload failed ({e}); using the grid");
-                    self.engine = CollisionEngine::Grid;
-                    self.grid.sync(obstacles);
-                }
-            }
-            CollisionEngine::BruteForce => {}
         }
         let model = cfg.collision;
         let start_point = point(&model, &robot);
         if self.collisions(obstacles, &[start_point])[0] {
             // Away from the colliding Gaussians: the sum of their unit offsets.
             let (mut ax, mut ay) = (0.0f64, 0.0f64);
-            for (m, r) in obstacles.means.iter().zip(&obstacles.radii) {
-                if model.collides(start_point, *m, *r) {
-                    let (dx, dy) = (robot.x - f64::from(m[0]), robot.y - f64::from(m[1]));
-                    let n = dx.hypot(dy).max(1e-6);
-                    ax += dx / n;
-                    ay += dy / n;
-                }
+            for m in self.grid.colliding_means(start_point) {
+                let (dx, dy) = (robot.x - f64::from(m[0]), robot.y - f64::from(m[1]));
+                let n = dx.hypot(dy).max(1e-6);
+                ax += dx / n;
+                ay += dy / n;
             }
             return Err(PlanFailure::StartInCollision { away: ay.atan2(ax) });
         }
@@ -256,9 +278,7 @@ impl RtGuidePlanner {
         let cfg = self.config.clone();
         let k = &cfg.mount.intrinsics;
         let half_fov = (k.cx / k.fx).atan().min((k.cy / k.fy).atan());
-        // One pass for the statistics and bounds, shared by the regions and the classes.
-        let summary = map.summary(&cfg.classify);
-        for region in regions_within(map, &cfg.classify, cfg.region_size, &summary) {
+        for region in self.tally.regions() {
             // The shortest distance at which the region's bounding sphere fits the view.
             let reach = cfg.region_size * 3f64.sqrt() / 2.0 / half_fov.sin();
             let mut candidates = Vec::new();
@@ -372,19 +392,7 @@ impl RtGuidePlanner {
         }
 
         let t2 = Instant::now();
-        let classes = map.classify_with(&cfg.classify, &summary);
-        let counter = match self.counter.as_mut() {
-            Some(c) => {
-                c.rebuild(&map.gaussians.means, &classes);
-                c
-            }
-            None => self.counter.insert(ViewCounter::new(
-                &map.gaussians.means,
-                &classes,
-                cfg.mount,
-                cfg.information_cell,
-            )),
-        };
+        let counter = &self.counter;
         let scored: Vec<(f64, &search::Trajectory)> = trajectories
             .iter()
             .map(|t| {
