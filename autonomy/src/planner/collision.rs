@@ -3,7 +3,7 @@
 //! reference; [`CollisionGrid`] gives the same answers from a uniform 3-D hash grid that is
 //! kept in sync with the map incrementally.
 
-use super::lattice::{Lattice, OVERFLOW};
+use super::lattice::{CellPoints, PointLattice};
 use super::mirror::{Change, Record};
 use crate::gaussians::Gaussians;
 use crate::map::ClassifyOptions;
@@ -111,48 +111,17 @@ pub fn brute_force(
         .collect()
 }
 
-/// The obstacles of one grid cell (structure of arrays, unordered).
-#[derive(Debug, Clone, Default)]
-struct GridCell {
-    x: Vec<f32>,
-    y: Vec<f32>,
-    z: Vec<f32>,
-    radius: Vec<f32>,
-    slots: Vec<u32>,
-}
-
-impl GridCell {
-    fn push(&mut self, slot: u32, mean: [f32; 3], radius: f32) -> u32 {
-        self.x.push(mean[0]);
-        self.y.push(mean[1]);
-        self.z.push(mean[2]);
-        self.radius.push(radius);
-        self.slots.push(slot);
-        (self.slots.len() - 1) as u32
+/// Whether `p` collides with any obstacle of `cell` (values are radii):
+/// [`CollisionModel::collides`] over every one without branches, so it vectorises.
+fn any_collides(cell: &CellPoints, model: &CollisionModel, p: [f32; 3]) -> bool {
+    let mut hit = false;
+    let points = cell.x.iter().zip(&cell.y).zip(&cell.z);
+    for (((x, y), z), r) in points.zip(&cell.value) {
+        let reach = model.robot_radius + model.gaussian_scale * r;
+        let d = [p[0] - x, p[1] - y, p[2] - z];
+        hit |= d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < reach * reach;
     }
-
-    /// Removes the obstacle at `k`; returns the slot moved into its place, if any.
-    fn swap_remove(&mut self, k: usize) -> Option<u32> {
-        self.x.swap_remove(k);
-        self.y.swap_remove(k);
-        self.z.swap_remove(k);
-        self.radius.swap_remove(k);
-        self.slots.swap_remove(k);
-        self.slots.get(k).copied()
-    }
-
-    /// Whether `p` collides with any obstacle here: [`CollisionModel::collides`] over every
-    /// member without branches, so it vectorises.
-    fn any_collides(&self, model: &CollisionModel, p: [f32; 3]) -> bool {
-        let mut hit = false;
-        let points = self.x.iter().zip(&self.y).zip(&self.z);
-        for (((x, y), z), r) in points.zip(&self.radius) {
-            let reach = model.robot_radius + model.gaussian_scale * r;
-            let d = [p[0] - x, p[1] - y, p[2] - z];
-            hit |= d[0] * d[0] + d[1] * d[1] + d[2] * d[2] < reach * reach;
-        }
-        hit
-    }
+    hit
 }
 
 /// A uniform 3-D grid over obstacle means, by slot (see [`super::mirror`]), on a lattice
@@ -163,14 +132,9 @@ impl GridCell {
 pub struct CollisionGrid {
     model: CollisionModel,
     radius_cap: f32,
-    lattice: Lattice<GridCell>,
-    /// Per slot: the cell and the position in it ([`NOWHERE`] when not filed).
-    located: Vec<(u32, u32)>,
-    count: usize,
+    /// Obstacle means, valued by radius.
+    lattice: PointLattice,
 }
-
-/// `located` of a slot with no obstacle.
-const NOWHERE: (u32, u32) = (u32::MAX, 0);
 
 /// What one [`CollisionGrid::apply`] or [`CollisionGrid::sync`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -189,52 +153,15 @@ impl CollisionGrid {
         CollisionGrid {
             model,
             radius_cap,
-            lattice: Lattice::new(model.robot_radius + model.gaussian_scale * radius_cap),
-            located: Vec::new(),
-            count: 0,
+            lattice: PointLattice::new(model.robot_radius + model.gaussian_scale * radius_cap),
         }
-    }
-
-    fn remove(&mut self, slot: u32) -> bool {
-        let s = slot as usize;
-        let Some(&(c, k)) = self.located.get(s).filter(|l| **l != NOWHERE) else {
-            return false;
-        };
-        self.located[s] = NOWHERE;
-        if let Some(moved) = self.lattice.get_mut(c).swap_remove(k as usize) {
-            self.located[moved as usize].1 = k;
-        }
-        self.count -= 1;
-        true
-    }
-
-    fn insert(&mut self, slot: u32, mean: [f32; 3], radius: f32) {
-        let c = if radius > self.radius_cap {
-            OVERFLOW
-        } else {
-            self.lattice.cell_for(mean)
-        };
-        let k = self.lattice.get_mut(c).push(slot, mean, radius);
-        let s = slot as usize;
-        if s >= self.located.len() {
-            self.located.resize(s + 1, NOWHERE);
-        }
-        self.located[s] = (c, k);
-        self.count += 1;
-    }
-
-    /// What slot `slot` holds: (mean, radius).
-    fn filed(&self, slot: usize) -> Option<([f32; 3], f32)> {
-        let &(c, k) = self.located.get(slot).filter(|l| **l != NOWHERE)?;
-        let (cell, k) = (self.lattice.get(c), k as usize);
-        Some(([cell.x[k], cell.y[k], cell.z[k]], cell.radius[k]))
     }
 
     /// Applies the mirror's changes, touching only the slots they name.
     pub fn apply(&mut self, changes: &[Change]) -> SyncReport {
         let mut report = SyncReport::default();
         for c in changes.iter() {
-            if c.new.is_none() && self.remove(c.slot) {
+            if c.new.is_none() && self.lattice.remove(c.slot).is_some() {
                 report.removed += 1;
             }
         }
@@ -245,12 +172,13 @@ impl CollisionGrid {
         );
         for c in changes.iter() {
             if let Some(r) = c.new {
-                if self.remove(c.slot) {
+                if self.lattice.remove(c.slot).is_some() {
                     report.moved += 1;
                 } else {
                     report.inserted += 1;
                 }
-                self.insert(c.slot, r.mean, r.radius);
+                let oversize = r.radius > self.radius_cap;
+                self.lattice.insert(c.slot, r.mean, r.radius, oversize);
             }
         }
         report
@@ -262,7 +190,7 @@ impl CollisionGrid {
         let n = obstacles.len();
         let mut changes = Vec::new();
         for (i, (m, r)) in obstacles.means.iter().zip(&obstacles.radii).enumerate() {
-            if self.filed(i) != Some((*m, *r)) {
+            if self.lattice.filed(i as u32) != Some((*m, *r)) {
                 changes.push(Change {
                     slot: i as u32,
                     old: None,
@@ -274,7 +202,7 @@ impl CollisionGrid {
                 });
             }
         }
-        for slot in n..self.located.len() {
+        for slot in n..self.lattice.slot_end() {
             changes.push(Change {
                 slot: slot as u32,
                 old: None,
@@ -286,17 +214,17 @@ impl CollisionGrid {
 
     /// Obstacles filed.
     pub fn len(&self) -> usize {
-        self.count
+        self.lattice.len()
     }
 
     /// Whether the grid is empty.
     pub fn is_empty(&self) -> bool {
-        self.count == 0
+        self.lattice.is_empty()
     }
 
     /// The cells a query at `p` reads: its own first (where a hit is likeliest), then its
     /// 26 neighbours, then the overflow cell.
-    fn cells_around(&self, p: [f32; 3]) -> impl Iterator<Item = &GridCell> {
+    fn cells_around(&self, p: [f32; 3]) -> impl Iterator<Item = &CellPoints> {
         let c = self.lattice.key(p);
         const AROUND: [i32; 3] = [0, -1, 1];
         AROUND
@@ -311,16 +239,16 @@ impl CollisionGrid {
     /// Whether `p` collides with any obstacle.
     pub fn point_collides(&self, p: [f32; 3]) -> bool {
         self.cells_around(p)
-            .any(|cell| cell.any_collides(&self.model, p))
+            .any(|cell| any_collides(cell, &self.model, p))
     }
 
     /// The means of every obstacle `p` collides with.
     pub fn colliding_means(&self, p: [f32; 3]) -> Vec<[f32; 3]> {
         let mut means = Vec::new();
         for cell in self.cells_around(p) {
-            for k in 0..cell.slots.len() {
-                let m = [cell.x[k], cell.y[k], cell.z[k]];
-                if self.model.collides(p, m, cell.radius[k]) {
+            for k in 0..cell.len() {
+                let m = cell.point(k);
+                if self.model.collides(p, m, cell.value[k]) {
                     means.push(m);
                 }
             }

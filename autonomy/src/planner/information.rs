@@ -8,7 +8,7 @@
 //! uncertainty, so the high / low thresholds, which move with every mapping step, are
 //! applied per cell by two binary searches instead of by refiling the map.
 
-use super::lattice::{Lattice, OVERFLOW};
+use super::lattice::{CellPoints, PointLattice, OVERFLOW};
 use super::mirror::{Change, Record};
 use super::unicycle::State;
 use crate::camera::Intrinsics;
@@ -86,16 +86,6 @@ impl View {
     }
 }
 
-/// The members of one cell (structure of arrays, unordered).
-#[derive(Debug, Clone, Default)]
-struct CellMembers {
-    x: Vec<f32>,
-    y: Vec<f32>,
-    z: Vec<f32>,
-    uncertainty: Vec<f32>,
-    slots: Vec<u32>,
-}
-
 /// What a view needs of a cell before reading its members, packed apart from them so the
 /// scan over the cells under a view stays in cache: a box around the members (tighter than
 /// the cell: Gaussians lie on surfaces, so more cells fall wholly inside or outside a view)
@@ -136,95 +126,64 @@ fn class(u: f32, low_below: f32, high_above: f32) -> (u32, u32) {
     (u32::from(u > high_above), u32::from(u < low_below))
 }
 
-impl CellMembers {
-    fn len(&self) -> usize {
-        self.slots.len()
+/// (#high, #low) members of `cell` (values are uncertainties).
+fn counts(cell: &CellPoints, low_below: f32, high_above: f32) -> (u32, u32) {
+    let (mut high, mut low) = (0u32, 0u32);
+    for u in &cell.value {
+        let (h, l) = class(*u, low_below, high_above);
+        high += h;
+        low += l;
     }
+    (high, low)
+}
 
-    fn push(&mut self, slot: u32, r: &Record) -> u32 {
-        self.x.push(r.mean[0]);
-        self.y.push(r.mean[1]);
-        self.z.push(r.mean[2]);
-        self.uncertainty.push(r.uncertainty);
-        self.slots.push(slot);
-        (self.slots.len() - 1) as u32
-    }
+/// The tight box around the members of `cell`.
+fn bounds(cell: &CellPoints) -> ([f32; 3], [f32; 3]) {
+    let extent = |v: &[f32]| {
+        v.iter()
+            .fold((f32::MAX, f32::MIN), |(lo, hi), x| (lo.min(*x), hi.max(*x)))
+    };
+    let e = [extent(&cell.x), extent(&cell.y), extent(&cell.z)];
+    (e.map(|b| b.0), e.map(|b| b.1))
+}
 
-    /// Removes the member at `k`; returns the slot moved into its place, if any.
-    fn swap_remove(&mut self, k: usize) -> Option<u32> {
-        self.x.swap_remove(k);
-        self.y.swap_remove(k);
-        self.z.swap_remove(k);
-        self.uncertainty.swap_remove(k);
-        self.slots.swap_remove(k);
-        self.slots.get(k).copied()
+/// (#high, #low) of the members of `cell` that `view` sees.
+fn count_seen(cell: &CellPoints, view: &View, low_below: f32, high_above: f32) -> (u32, u32) {
+    let (mut high, mut low) = (0u32, 0u32);
+    let points = cell.x.iter().zip(&cell.y).zip(&cell.z);
+    for (((x, y), z), u) in points.zip(&cell.value) {
+        let seen = view.sees(*x, *y, *z);
+        let (h, l) = class(*u, low_below, high_above);
+        high += u32::from(seen) & h;
+        low += u32::from(seen) & l;
     }
-
-    /// (#high, #low) members.
-    fn counts(&self, low_below: f32, high_above: f32) -> (u32, u32) {
-        let (mut high, mut low) = (0u32, 0u32);
-        for u in &self.uncertainty {
-            let (h, l) = class(*u, low_below, high_above);
-            high += h;
-            low += l;
-        }
-        (high, low)
-    }
-
-    /// The tight box around the members.
-    fn bounds(&self) -> ([f32; 3], [f32; 3]) {
-        let extent = |v: &[f32]| {
-            v.iter()
-                .fold((f32::MAX, f32::MIN), |(lo, hi), x| (lo.min(*x), hi.max(*x)))
-        };
-        let e = [extent(&self.x), extent(&self.y), extent(&self.z)];
-        (e.map(|b| b.0), e.map(|b| b.1))
-    }
-
-    /// (#high, #low) of the members `view` sees.
-    fn count_seen(&self, view: &View, low_below: f32, high_above: f32) -> (u32, u32) {
-        let (mut high, mut low) = (0u32, 0u32);
-        let points = self.x.iter().zip(&self.y).zip(&self.z);
-        for (((x, y), z), u) in points.zip(&self.uncertainty) {
-            let seen = view.sees(*x, *y, *z);
-            high += u32::from(seen & (*u > high_above));
-            low += u32::from(seen & (*u < low_below));
-        }
-        (high, low)
-    }
+    (high, low)
 }
 
 /// Per-cell members of the map's Gaussians on a lattice anchored at the world origin, with
 /// counts of the high and low ones under the current thresholds.
 #[derive(Debug, Clone)]
 pub struct ViewCounter {
-    lattice: Lattice<CellMembers>,
+    /// Gaussian means, valued by uncertainty.
+    lattice: PointLattice,
     /// Per cell id (the overflow cell has none: it is always read member by member).
     summaries: Vec<CellSummary>,
-    /// Per slot: the cell and the position in it ([`NOWHERE`] when not filed).
-    located: Vec<(u32, u32)>,
     low_below: f32,
     high_above: f32,
-    members: usize,
     mount: CameraMount,
     /// lambda_xi.
     pub low_weight: f64,
 }
-
-/// `located` of a slot with no member.
-const NOWHERE: (u32, u32) = (u32::MAX, 0);
 
 impl ViewCounter {
     /// An empty counter with cells of side `cell` metres; nothing is high or low until
     /// [`ViewCounter::set_stats`] or [`ViewCounter::set_thresholds`].
     pub fn new(mount: CameraMount, cell: f32) -> Self {
         ViewCounter {
-            lattice: Lattice::new(cell),
+            lattice: PointLattice::new(cell),
             summaries: Vec::new(),
-            located: Vec::new(),
             low_below: f32::NEG_INFINITY,
             high_above: f32::INFINITY,
-            members: 0,
             mount,
             low_weight: 1.0,
         }
@@ -265,12 +224,12 @@ impl ViewCounter {
 
     /// Gaussians filed.
     pub fn len(&self) -> usize {
-        self.members
+        self.lattice.len()
     }
 
     /// Whether none are filed.
     pub fn is_empty(&self) -> bool {
-        self.members == 0
+        self.lattice.is_empty()
     }
 
     /// Applies the mirror's changes: members leave and join their cells, whose counts and
@@ -279,21 +238,13 @@ impl ViewCounter {
         let (low_below, high_above) = (self.low_below, self.high_above);
         let mut loose: Vec<u32> = Vec::new();
         for change in changes.iter().filter(|c| c.old.is_some()) {
-            let s = change.slot as usize;
-            let Some(&(c, k)) = self.located.get(s).filter(|l| **l != NOWHERE) else {
+            let Some((c, u)) = self.lattice.remove(change.slot) else {
                 continue;
             };
-            self.located[s] = NOWHERE;
-            let cell = self.lattice.get_mut(c);
-            let (h, l) = class(cell.uncertainty[k as usize], low_below, high_above);
-            let moved = cell.swap_remove(k as usize);
-            let left = cell.len() as u32;
-            if let Some(m) = moved {
-                self.located[m as usize].1 = k;
-            }
-            self.members -= 1;
             if c != OVERFLOW {
+                let left = self.lattice.get(c).len() as u32;
                 let summary = &mut self.summaries[c as usize];
+                let (h, l) = class(u, low_below, high_above);
                 summary.high -= h;
                 summary.low -= l;
                 summary.stale += 1;
@@ -312,14 +263,9 @@ impl ViewCounter {
             let Some(new) = &change.new else {
                 continue;
             };
-            let c = self.lattice.cell_for(new.mean);
-            let k = self.lattice.get_mut(c).push(change.slot, new);
-            let s = change.slot as usize;
-            if s >= self.located.len() {
-                self.located.resize(s + 1, NOWHERE);
-            }
-            self.located[s] = (c, k);
-            self.members += 1;
+            let c = self
+                .lattice
+                .insert(change.slot, new.mean, new.uncertainty, false);
             if c != OVERFLOW {
                 let c = c as usize;
                 if c >= self.summaries.len() {
@@ -338,7 +284,7 @@ impl ViewCounter {
         // Boxes that half their members have left since they were last tight.
         for c in loose {
             let summary = &mut self.summaries[c as usize];
-            (summary.lo, summary.hi) = self.lattice.get(c).bounds();
+            (summary.lo, summary.hi) = bounds(self.lattice.get(c));
             summary.stale = 0;
             summary.queued = false;
         }
@@ -354,7 +300,7 @@ impl ViewCounter {
         self.low_below = low_below;
         self.high_above = high_above;
         for (cell, summary) in self.lattice.cells().iter().zip(&mut self.summaries) {
-            (summary.high, summary.low) = cell.counts(low_below, high_above);
+            (summary.high, summary.low) = counts(cell, low_below, high_above);
         }
     }
 
@@ -368,10 +314,12 @@ impl ViewCounter {
     /// (#high, #low) in view from robot state `s`.
     pub fn count(&self, s: &State) -> (u32, u32) {
         let view = View::new(&self.mount, s);
-        let (mut high, mut low) =
-            self.lattice
-                .overflow()
-                .count_seen(&view, self.low_below, self.high_above);
+        let (mut high, mut low) = count_seen(
+            self.lattice.overflow(),
+            &view,
+            self.low_below,
+            self.high_above,
+        );
         let (f, c) = (view.forward, view.centre);
         let right = [f[1], -f[0]];
         // The view's six half-spaces as (normal, offset): inside when n . (p - c) + o > 0.
@@ -459,7 +407,7 @@ impl ViewCounter {
                         low += cell.low;
                         continue;
                     }
-                    let (h, l) = l.get(k).count_seen(&view, self.low_below, self.high_above);
+                    let (h, l) = count_seen(l.get(k), &view, self.low_below, self.high_above);
                     high += h;
                     low += l;
                 }
@@ -482,9 +430,9 @@ impl ViewCounter {
         for cell in self.lattice.iter() {
             for k in 0..cell.len() {
                 if view.sees(cell.x[k], cell.y[k], cell.z[k]) {
-                    if cell.uncertainty[k] > self.high_above {
+                    if cell.value[k] > self.high_above {
                         high += 1;
-                    } else if cell.uncertainty[k] < self.low_below {
+                    } else if cell.value[k] < self.low_below {
                         low += 1;
                     }
                 }

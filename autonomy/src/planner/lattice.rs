@@ -1,8 +1,10 @@
-//! A dense index over a cubic lattice anchored at the world origin, for the planner's
-//! per-cell stores (the collision grid, the counting grid). It grows as the map grows, with
-//! room to spare so growth is rare; cell keys never change, so growing only re-lays the
-//! index. Cells beyond a size limit (far outliers) share one overflow cell that callers
-//! always visit.
+//! Points filed by slot in the cells of a cubic lattice anchored at the world origin: the
+//! store under the planner's collision grid (points are obstacle means, values radii) and
+//! counting grid (values are uncertainties). A dense index finds a cell; it grows as the map
+//! grows, with room to spare so growth is rare, and since cell keys never change, growing
+//! only re-lays the index. Cells beyond a size limit (far outliers) share one overflow cell
+//! that callers always visit. Each slot knows its cell and position, so a point leaves in
+//! O(1) (swap-remove).
 
 /// Index entries the dense index may hold (64 MiB of u32).
 const MAX_DENSE_CELLS: usize = 1 << 24;
@@ -11,29 +13,138 @@ const NO_CELL: u32 = u32::MAX;
 /// The id of the overflow cell.
 pub const OVERFLOW: u32 = u32::MAX - 1;
 
-/// Cells of type `T` on a lattice of side `cell` metres.
+/// The points of one cell, structure of arrays (so tests over them vectorise), unordered.
+#[derive(Debug, Clone, Default)]
+pub struct CellPoints {
+    /// x of each point, metres.
+    pub x: Vec<f32>,
+    /// y of each point, metres.
+    pub y: Vec<f32>,
+    /// z of each point, metres.
+    pub z: Vec<f32>,
+    /// The value each point carries.
+    pub value: Vec<f32>,
+    /// The slot of each point.
+    pub slots: Vec<u32>,
+}
+
+impl CellPoints {
+    /// Points in the cell.
+    pub fn len(&self) -> usize {
+        self.slots.len()
+    }
+
+    /// Whether the cell has none.
+    pub fn is_empty(&self) -> bool {
+        self.slots.is_empty()
+    }
+
+    /// Point `k`.
+    pub fn point(&self, k: usize) -> [f32; 3] {
+        [self.x[k], self.y[k], self.z[k]]
+    }
+
+    fn push(&mut self, slot: u32, p: [f32; 3], value: f32) -> u32 {
+        self.x.push(p[0]);
+        self.y.push(p[1]);
+        self.z.push(p[2]);
+        self.value.push(value);
+        self.slots.push(slot);
+        (self.slots.len() - 1) as u32
+    }
+
+    /// Removes point `k`; returns the slot moved into its place, if any.
+    fn swap_remove(&mut self, k: usize) -> Option<u32> {
+        self.x.swap_remove(k);
+        self.y.swap_remove(k);
+        self.z.swap_remove(k);
+        self.value.swap_remove(k);
+        self.slots.swap_remove(k);
+        self.slots.get(k).copied()
+    }
+}
+
+/// `located` of a slot with no point.
+const NOWHERE: (u32, u32) = (u32::MAX, 0);
+
+/// Points by slot in cells of side `cell` metres.
 #[derive(Debug, Clone)]
-pub struct Lattice<T> {
+pub struct PointLattice {
     cell: f32,
     /// Lattice key of the index's first entry, and the index's extent in cells.
     lo: [i32; 3],
     dims: [usize; 3],
     index: Vec<u32>,
-    cells: Vec<T>,
-    overflow: T,
+    cells: Vec<CellPoints>,
+    overflow: CellPoints,
+    /// Per slot: the cell and the position in it ([`NOWHERE`] when not filed).
+    located: Vec<(u32, u32)>,
+    count: usize,
 }
 
-impl<T: Default> Lattice<T> {
+impl PointLattice {
     /// An empty lattice of cells of side `cell` metres.
     pub fn new(cell: f32) -> Self {
-        Lattice {
+        PointLattice {
             cell,
             lo: [0; 3],
             dims: [0; 3],
             index: Vec::new(),
             cells: Vec::new(),
-            overflow: T::default(),
+            overflow: CellPoints::default(),
+            located: Vec::new(),
+            count: 0,
         }
+    }
+
+    /// Points filed.
+    pub fn len(&self) -> usize {
+        self.count
+    }
+
+    /// Whether none are filed.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// One past the largest slot ever filed.
+    pub fn slot_end(&self) -> usize {
+        self.located.len()
+    }
+
+    /// Files `slot` at `p` with `value`, in the overflow cell when `overflow` says so or `p`
+    /// is beyond the index's limit; returns the cell's id. The slot must not be filed.
+    pub fn insert(&mut self, slot: u32, p: [f32; 3], value: f32, overflow: bool) -> u32 {
+        let c = if overflow { OVERFLOW } else { self.cell_for(p) };
+        let k = self.get_mut(c).push(slot, p, value);
+        let s = slot as usize;
+        if s >= self.located.len() {
+            self.located.resize(s + 1, NOWHERE);
+        }
+        self.located[s] = (c, k);
+        self.count += 1;
+        c
+    }
+
+    /// Takes `slot` out; returns its cell's id and its value, or None when it was not filed.
+    pub fn remove(&mut self, slot: u32) -> Option<(u32, f32)> {
+        let s = slot as usize;
+        let &(c, k) = self.located.get(s).filter(|l| **l != NOWHERE)?;
+        self.located[s] = NOWHERE;
+        let cell = self.get_mut(c);
+        let value = cell.value[k as usize];
+        if let Some(moved) = cell.swap_remove(k as usize) {
+            self.located[moved as usize].1 = k;
+        }
+        self.count -= 1;
+        Some((c, value))
+    }
+
+    /// Where `slot` is filed: (point, value).
+    pub fn filed(&self, slot: u32) -> Option<([f32; 3], f32)> {
+        let &(c, k) = self.located.get(slot as usize).filter(|l| **l != NOWHERE)?;
+        let (cell, k) = (self.get(c), k as usize);
+        Some((cell.point(k), cell.value[k]))
     }
 
     /// Side of a cell, metres.
@@ -136,7 +247,7 @@ impl<T: Default> Lattice<T> {
     }
 
     /// The id of the cell holding `p`, created if need be; [`OVERFLOW`] beyond the limit.
-    pub fn cell_for(&mut self, p: [f32; 3]) -> u32 {
+    fn cell_for(&mut self, p: [f32; 3]) -> u32 {
         let key = self.key(p);
         if self.dense(key).is_none() && !self.cover(key, key) {
             return OVERFLOW;
@@ -146,14 +257,14 @@ impl<T: Default> Lattice<T> {
         };
         if self.index[d] == NO_CELL {
             self.index[d] = self.cells.len() as u32;
-            self.cells.push(T::default());
+            self.cells.push(CellPoints::default());
         }
         self.index[d]
     }
 
     /// The cell with id `c` ([`OVERFLOW`] included).
     #[inline]
-    pub fn get(&self, c: u32) -> &T {
+    pub fn get(&self, c: u32) -> &CellPoints {
         if c == OVERFLOW {
             &self.overflow
         } else {
@@ -161,8 +272,7 @@ impl<T: Default> Lattice<T> {
         }
     }
 
-    /// The cell with id `c` ([`OVERFLOW`] included), to change.
-    pub fn get_mut(&mut self, c: u32) -> &mut T {
+    fn get_mut(&mut self, c: u32) -> &mut CellPoints {
         if c == OVERFLOW {
             &mut self.overflow
         } else {
@@ -171,25 +281,18 @@ impl<T: Default> Lattice<T> {
     }
 
     /// The cells, by id (the overflow cell not among them).
-    pub fn cells(&self) -> &[T] {
+    pub fn cells(&self) -> &[CellPoints] {
         &self.cells
     }
 
     /// The overflow cell, which every query visits.
-    pub fn overflow(&self) -> &T {
+    pub fn overflow(&self) -> &CellPoints {
         &self.overflow
     }
 
     /// Every cell, the overflow cell last.
-    pub fn iter(&self) -> impl Iterator<Item = &T> {
+    pub fn iter(&self) -> impl Iterator<Item = &CellPoints> {
         self.cells.iter().chain(std::iter::once(&self.overflow))
-    }
-
-    /// Every cell, the overflow cell last, to change.
-    pub fn iter_mut(&mut self) -> impl Iterator<Item = &mut T> {
-        self.cells
-            .iter_mut()
-            .chain(std::iter::once(&mut self.overflow))
     }
 
     /// The range of keys along axis `a` that the index holds and that [lo, hi] (metres)
