@@ -111,6 +111,44 @@ fn gpu_collision_answers_equal_brute_force() {
     assert_eq!(got, brute_force(&model, &obstacles, &points));
 }
 
+#[test]
+fn a_planner_on_the_wgpu_engine_plans_as_one_on_the_grid() {
+    use autonomy::planner::gpu_collision::GpuCollision;
+    use autonomy::splat::gpu::{AdapterPolicy, GpuError};
+    let gpu = match GpuCollision::new(AdapterPolicy::AllowSoftware) {
+        Ok(g) => g,
+        Err(GpuError::NoAdapter(reason)) => {
+            eprintln!("SKIPPED: no wgpu adapter at all: {reason}");
+            return;
+        }
+        Err(e) => panic!("an adapter exists but the engine failed: {e}"),
+    };
+    let mut on_gpu = RtGuidePlanner::new(
+        PlannerConfig::default(),
+        CollisionEngine::Gpu(Box::new(gpu)),
+    );
+    let mut on_grid = RtGuidePlanner::new(PlannerConfig::default(), CollisionEngine::Grid);
+    let mut map = map_of(&wall());
+    for step in 0..2 {
+        let robot = State {
+            x: 0.2 * step as f64,
+            y: -0.3,
+            theta: 0.2,
+        };
+        let (a, b) = (on_gpu.plan(&map, robot), on_grid.plan(&map, robot));
+        let (a, b) = (a.expect("gpu plan"), b.expect("grid plan"));
+        assert_eq!(
+            (&a.controls, &a.states, a.information, &a.guidance),
+            (&b.controls, &b.states, b.information, &b.guidance),
+            "step {step}"
+        );
+        // The wall's lower half slides toward the robot between plans.
+        for m in map.gaussians.means.iter_mut().filter(|m| m[2] < 0.5) {
+            m[0] -= 0.4;
+        }
+    }
+}
+
 /// A 3 m wide, 1 m tall wall of 2 cm Gaussians across x = 2.
 fn wall() -> Obstacles {
     let mut o = Obstacles::default();
