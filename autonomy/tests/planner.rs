@@ -563,6 +563,12 @@ fn incremental_upkeep_equals_a_fresh_pass_after_moves_growth_and_prunes() {
         for (a, b) in running.iter().zip(&reference) {
             assert_eq!((a.centre, a.count), (b.centre, b.count), "round {round}");
             assert!((a.omega - b.omega).abs() <= 1e-9, "round {round}");
+            for k in 0..3 {
+                assert!(
+                    (a.centroid[k] - b.centroid[k]).abs() <= 1e-5,
+                    "round {round}"
+                );
+            }
         }
         // Collisions against brute force over the map's obstacles now.
         let obstacles = Obstacles::from_gaussians(&map.gaussians, &options);

@@ -12,8 +12,12 @@ pub const KEEP_RADIUS: f64 = 0.5;
 /// A cuboid of the known space and its utility.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Region {
-    /// Centre, metres.
+    /// Centre of the cube, metres.
     pub centre: [f64; 3],
+    /// Mean position of its Gaussians, metres: viewpoints are sampled around it (the paper's
+    /// "Gaussian region centroid"), so a cube that reaches past a wall is looked at where its
+    /// Gaussians are, not from its empty half.
+    pub centroid: [f64; 3],
     /// Gaussians inside (ground plane left out).
     pub count: usize,
     /// Mean uncertainty of those Gaussians.
@@ -24,18 +28,24 @@ pub struct Region {
 /// world origin, each occupied cube with its mean uncertainty, z-major. One pass over the
 /// map: the reference the planner's running [`super::tally::Tally`] is checked against.
 pub fn regions(map: &GaussianMap, options: &ClassifyOptions, size: f64) -> Vec<Region> {
-    let mut sums: BTreeMap<[i64; 3], (f64, usize)> = BTreeMap::new();
+    let mut sums: BTreeMap<[i64; 3], (f64, [f64; 3], usize)> = BTreeMap::new();
     for (m, u) in map.gaussians.means.iter().zip(&map.uncertainty) {
         if options.includes(m) {
             let k = |v: f32| (f64::from(v) / size).floor() as i64;
-            let e = sums.entry([k(m[2]), k(m[1]), k(m[0])]).or_insert((0.0, 0));
+            let e = sums
+                .entry([k(m[2]), k(m[1]), k(m[0])])
+                .or_insert((0.0, [0.0; 3], 0));
             e.0 += f64::from(*u);
-            e.1 += 1;
+            for a in 0..3 {
+                e.1[a] += f64::from(m[a]);
+            }
+            e.2 += 1;
         }
     }
     sums.into_iter()
-        .map(|(k, (sum, count))| Region {
+        .map(|(k, (sum, position, count))| Region {
             centre: [k[2], k[1], k[0]].map(|k| (k as f64 + 0.5) * size),
+            centroid: position.map(|p| p / count as f64),
             count,
             omega: sum / count as f64,
         })

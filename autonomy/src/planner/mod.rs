@@ -285,8 +285,8 @@ impl RtGuidePlanner {
             for j in 0..cfg.viewpoints_per_region {
                 let a = std::f64::consts::TAU * j as f64 / cfg.viewpoints_per_region as f64;
                 let p = [
-                    region.centre[0] + reach * a.cos(),
-                    region.centre[1] + reach * a.sin(),
+                    region.centroid[0] + reach * a.cos(),
+                    region.centroid[1] + reach * a.sin(),
                 ];
                 candidates.push((p, a + std::f64::consts::PI));
             }

@@ -1,5 +1,5 @@
 //! Running sums over the planner's Gaussians: the uncertainty statistics that set the
-//! high / low thresholds, and each region's count and mean uncertainty (Omega). They follow
+//! high / low thresholds, and each region's count, centroid and mean uncertainty (Omega). They follow
 //! the mirror's changes, so a plan reads them without a pass over the map.
 //!
 //! The sums are fixed-point integers: exact, so adding and removing Gaussians in any order
@@ -14,6 +14,16 @@ use std::collections::BTreeMap;
 const SCALE: f64 = 4_294_967_296.0;
 /// Uncertainties are clamped to this (metres) so the sums cannot overflow.
 const MAX_UNCERTAINTY: f64 = 256.0;
+/// Fixed-point units per metre of position (about a micrometre).
+const POSITION_SCALE: f64 = 1_048_576.0;
+
+/// One region's sums.
+#[derive(Debug, Clone, Copy, Default)]
+struct RegionSums {
+    uncertainty: i128,
+    position: [i128; 3],
+    count: i64,
+}
 
 fn quantise(u: f32) -> i128 {
     // NaN becomes 0 (the mapper refuses NaN; this only keeps the sums finite).
@@ -27,8 +37,8 @@ pub struct Tally {
     sum: i128,
     sum_sq: i128,
     count: i64,
-    /// Region (z, y, x lattice index, so regions come out z-major) -> (sum, count).
-    regions: BTreeMap<[i32; 3], (i128, i64)>,
+    /// Region (z, y, x lattice index, so regions come out z-major) -> its sums.
+    regions: BTreeMap<[i32; 3], RegionSums>,
 }
 
 impl Tally {
@@ -64,10 +74,15 @@ impl Tally {
         self.count += sign;
         let k = |v: f32| (f64::from(v) / self.region_size).floor() as i32;
         let key = [k(r.mean[2]), k(r.mean[1]), k(r.mean[0])];
-        let entry = self.regions.entry(key).or_insert((0, 0));
-        entry.0 += q;
-        entry.1 += sign;
-        if entry.1 == 0 {
+        let entry = self.regions.entry(key).or_default();
+        entry.uncertainty += q;
+        for a in 0..3 {
+            // Positions saturate far beyond any map (f64 -> int casts clamp).
+            let p = (f64::from(r.mean[a]) * POSITION_SCALE).round() as i64;
+            entry.position[a] += i128::from(p) * i128::from(sign);
+        }
+        entry.count += sign;
+        if entry.count == 0 {
             self.regions.remove(&key);
         }
     }
@@ -104,10 +119,14 @@ impl Tally {
         let size = self.region_size;
         self.regions
             .iter()
-            .map(|(key, (sum, count))| Region {
-                centre: [key[2], key[1], key[0]].map(|k| (f64::from(k) + 0.5) * size),
-                count: *count as usize,
-                omega: *sum as f64 / SCALE / *count as f64,
+            .map(|(key, sums)| {
+                let n = sums.count as f64;
+                Region {
+                    centre: [key[2], key[1], key[0]].map(|k| (f64::from(k) + 0.5) * size),
+                    centroid: sums.position.map(|p| p as f64 / POSITION_SCALE / n),
+                    count: sums.count as usize,
+                    omega: sums.uncertainty as f64 / SCALE / n,
+                }
             })
             .collect()
     }
