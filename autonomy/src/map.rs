@@ -68,22 +68,10 @@ pub struct UncertaintyStats {
 /// Gaussians per parallel work item of the map's passes.
 pub const CHUNK: usize = 1 << 15;
 
-/// What one parallel pass over the map tells the planner: the uncertainty statistics and the
-/// bounding box of the included Gaussians (regions and the counting grid are laid over it).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MapSummary {
-    /// Statistics of the included uncertainties.
-    pub stats: UncertaintyStats,
-    /// Smallest corner of the included means (f32::MAX when none).
-    pub lo: [f32; 3],
-    /// Largest corner of the included means (f32::MIN when none).
-    pub hi: [f32; 3],
-}
-
-impl MapSummary {
+impl UncertaintyStats {
     /// The class of an included Gaussian of uncertainty `u` (mean +- half a standard deviation).
     pub fn class_of(&self, u: f32) -> UncertaintyClass {
-        let (mean, half) = (self.stats.mean, 0.5 * self.stats.std);
+        let (mean, half) = (self.mean, 0.5 * self.std);
         if u > mean + half {
             UncertaintyClass::High
         } else if u < mean - half {
@@ -139,82 +127,55 @@ impl GaussianMap {
         options.includes(&self.gaussians.means[i])
     }
 
-    /// Statistics and bounds of the included Gaussians, in one pass split across threads
-    /// (the planner reads them every plan, over millions of Gaussians).
-    pub fn summary(&self, options: &ClassifyOptions) -> MapSummary {
+    /// Statistics of the uncertainty over the included Gaussians, in one pass split across
+    /// threads.
+    pub fn stats(&self, options: &ClassifyOptions) -> UncertaintyStats {
         use rayon::prelude::*;
-        type Acc = (f64, f64, usize, [f32; 3], [f32; 3]);
-        let empty: Acc = (0.0, 0.0, 0, [f32::MAX; 3], [f32::MIN; 3]);
+        type Acc = (f64, f64, usize);
         // Fixed chunks summed in a fixed order: the same sums whatever the thread count and
-        // scheduling, so episodes repeat exactly.
+        // scheduling, so results repeat exactly.
         let partial: Vec<Acc> = self
             .gaussians
             .means
             .par_chunks(CHUNK)
             .zip(self.uncertainty.par_chunks(CHUNK))
             .map(|(means, uncertainty)| {
-                let mut a = empty;
+                let mut a: Acc = (0.0, 0.0, 0);
                 for (m, u) in means.iter().zip(uncertainty) {
                     if options.includes(m) {
                         let u = f64::from(*u);
                         a.0 += u;
                         a.1 += u * u;
                         a.2 += 1;
-                        for k in 0..3 {
-                            a.3[k] = a.3[k].min(m[k]);
-                            a.4[k] = a.4[k].max(m[k]);
-                        }
                     }
                 }
                 a
             })
             .collect();
-        let (sum, sum2, count, lo, hi) = partial.into_iter().fold(empty, |a, b| {
-            (
-                a.0 + b.0,
-                a.1 + b.1,
-                a.2 + b.2,
-                std::array::from_fn(|k| a.3[k].min(b.3[k])),
-                std::array::from_fn(|k| a.4[k].max(b.4[k])),
-            )
-        });
-        let stats = if count == 0 {
-            UncertaintyStats::default()
-        } else {
-            let mean = sum / count as f64;
-            let var = (sum2 / count as f64 - mean * mean).max(0.0);
-            UncertaintyStats {
-                mean: mean as f32,
-                std: var.sqrt() as f32,
-                count,
-            }
-        };
-        MapSummary { stats, lo, hi }
-    }
-
-    /// Statistics of the uncertainty over the included Gaussians.
-    pub fn stats(&self, options: &ClassifyOptions) -> UncertaintyStats {
-        self.summary(options).stats
+        let (sum, sum2, count) = partial
+            .into_iter()
+            .fold((0.0, 0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1, a.2 + b.2));
+        if count == 0 {
+            return UncertaintyStats::default();
+        }
+        let mean = sum / count as f64;
+        let var = (sum2 / count as f64 - mean * mean).max(0.0);
+        UncertaintyStats {
+            mean: mean as f32,
+            std: var.sqrt() as f32,
+            count,
+        }
     }
 
     /// The class of every Gaussian.
     pub fn classify(&self, options: &ClassifyOptions) -> Vec<UncertaintyClass> {
-        self.classify_with(options, &self.summary(options))
-    }
-
-    /// [`GaussianMap::classify`] with the thresholds of a summary already computed (the
-    /// planner takes one per plan and shares it with the regions).
-    pub fn classify_with(
-        &self,
-        options: &ClassifyOptions,
-        summary: &MapSummary,
-    ) -> Vec<UncertaintyClass> {
+        let stats = self.stats(options);
         self.uncertainty
             .iter()
             .enumerate()
             .map(|(i, u)| {
                 if self.included(i, options) {
-                    summary.class_of(*u)
+                    stats.class_of(*u)
                 } else {
                     UncertaintyClass::Excluded
                 }

@@ -511,7 +511,7 @@ fn viewpoints_behind_a_wall_are_not_targets() {
 /// renumber the map.
 #[test]
 fn incremental_upkeep_equals_a_fresh_pass_after_moves_growth_and_prunes() {
-    use autonomy::map::{ClassifyOptions, MapSummary};
+    use autonomy::map::ClassifyOptions;
     use autonomy::planner::graph::regions;
     use autonomy::planner::mirror::MapMirror;
     use autonomy::planner::tally::Tally;
@@ -580,15 +580,10 @@ fn incremental_upkeep_equals_a_fresh_pass_after_moves_growth_and_prunes() {
             "round {round}"
         );
         // Counts against a counter built afresh from the map's classes.
-        let summary = MapSummary {
-            stats,
-            lo: [0.0; 3],
-            hi: [0.0; 3],
-        };
         let classes: Vec<UncertaintyClass> = (0..map.len())
             .map(|i| {
                 if options.includes(&map.gaussians.means[i]) {
-                    summary.class_of(map.uncertainty[i])
+                    stats.class_of(map.uncertainty[i])
                 } else {
                     UncertaintyClass::Excluded
                 }

@@ -304,7 +304,7 @@ impl ViewCounter {
         }
     }
 
-    /// RT-GuIDE's thresholds (as [`crate::map::MapSummary::class_of`]): more than half a
+    /// RT-GuIDE's thresholds (as [`UncertaintyStats::class_of`]): more than half a
     /// standard deviation above the mean is high, below it low.
     pub fn set_stats(&mut self, stats: &UncertaintyStats) {
         let half = 0.5 * stats.std;
