@@ -10,6 +10,7 @@ pub mod egl;
 pub mod episode;
 pub mod error;
 pub mod evaluate;
+pub mod floorplan;
 pub mod mujoco;
 pub mod novel_view;
 pub mod plot;
@@ -17,5 +18,7 @@ pub mod record;
 pub mod robot;
 pub mod survey;
 pub mod world;
+pub mod world_check;
+pub mod worldgen;
 
 pub use error::{Result, SimError};

@@ -34,6 +34,9 @@ enum Command {
     /// Render a saved map's RGB and depth at the poses of a TUM groundtruth.txt, with the
     /// intrinsics of a camera.json, into a new dataset folder.
     Render(RenderArgs),
+    /// Worlds: generate one by seed, check one, import or export a scene.
+    #[command(subcommand)]
+    World(WorldCommand),
     /// Measure performance and print a table.
     Bench {
         /// What to measure.
@@ -56,6 +59,61 @@ enum Command {
         /// skipped.
         #[arg(long, value_delimiter = ',', default_value = "cpu,auto")]
         engine: Vec<String>,
+    },
+}
+
+#[derive(Subcommand)]
+enum WorldCommand {
+    /// Generate a world by seed: an apartment (3-6 rooms, 50-120 m2), an office (a corridor
+    /// with 4-8 rooms, 80-200 m2) or a warehouse (shelving rows and walled rooms, 120-300 m2).
+    /// Candidates that fail `world check` are never written; the next sub-seed is tried.
+    Generate {
+        /// Seed; the same seed and options give the same file, byte for byte.
+        #[arg(long)]
+        seed: u64,
+        /// apartment, office or warehouse.
+        #[arg(long)]
+        kind: String,
+        /// Floor area inside the outer walls, m2 (default: drawn from the kind's range).
+        #[arg(long)]
+        area: Option<f64>,
+        /// MJCF file to write; it includes models/unicycle.xml and uses worlds/assets/ by
+        /// paths relative to itself.
+        #[arg(long)]
+        out: PathBuf,
+        /// Replace the file if it exists.
+        #[arg(long)]
+        overwrite: bool,
+    },
+    /// Generate the benchmark suite: PER_KIND worlds of each kind (seeds 1..=PER_KIND) and
+    /// manifest.json (file, seed, kind, area, rooms, doors).
+    Suite {
+        /// Folder to write (worlds/suite in the repository).
+        #[arg(long, default_value = "worlds/suite")]
+        out: PathBuf,
+        /// Worlds per kind.
+        #[arg(long, default_value_t = 4)]
+        per_kind: u64,
+        /// Replace existing files.
+        #[arg(long)]
+        overwrite: bool,
+    },
+    /// Check a world: the spawn is collision-free and on a floor, the world is closed, every
+    /// place the robot fits is reachable from the spawn, no geoms intersect. Prints the floor,
+    /// free and reachable areas and the regions; exits non-zero when a problem is found.
+    Check {
+        /// MJCF world that includes the robot.
+        world: PathBuf,
+        /// Check from this start pose `x,y,yaw` instead of the world's spawn site.
+        #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
+        spawn: Option<Pose2>,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+        /// Also draw the floor plan into this PNG (obstacles grey, reachable green,
+        /// unreachable free space red, the spawn blue).
+        #[arg(long)]
+        plot: Option<PathBuf>,
     },
 }
 
@@ -243,6 +301,7 @@ fn run(command: Command) -> Result<()> {
         Command::Run(args) => run_run(args),
         Command::Eval(args) => run_eval(args),
         Command::Render(args) => run_render(args),
+        Command::World(command) => run_world(command),
         Command::Bench {
             what,
             world,
@@ -535,6 +594,162 @@ fn run_render(args: RenderArgs) -> Result<()> {
         config.out.display()
     );
     Ok(())
+}
+
+fn run_world(command: WorldCommand) -> Result<()> {
+    use splatloop::worldgen::{generate, GenerateConfig, WorldKind};
+    let mut say_rejected = |sub_seed: u32, why: &str| {
+        eprintln!(
+            "candidate {sub_seed} rejected ({why}); trying candidate {}",
+            sub_seed + 1
+        );
+    };
+    match command {
+        WorldCommand::Generate {
+            seed,
+            kind,
+            area,
+            out,
+            overwrite,
+        } => {
+            let kind: WorldKind = kind.parse().map_err(anyhow::Error::msg)?;
+            let config = GenerateConfig {
+                kind,
+                seed,
+                area,
+                out,
+                overwrite,
+            };
+            let world = generate(&config, &mut say_rejected)
+                .with_context(|| format!("generating {} failed", config.out.display()))?;
+            println!(
+                "wrote {} ({} seed {}, candidate {}): {:.1} m2, {} rooms, {} doors, {} geoms, {:.1}% of the free space reachable",
+                world.file.display(),
+                kind.name(),
+                seed,
+                world.sub_seed,
+                world.area,
+                world.rooms,
+                world.doors,
+                world.report.geoms,
+                100.0 * world.report.reachable_share
+            );
+            Ok(())
+        }
+        WorldCommand::Suite {
+            out,
+            per_kind,
+            overwrite,
+        } => {
+            let mut manifest = Vec::new();
+            for kind in WorldKind::ALL {
+                for seed in 1..=per_kind {
+                    let file = out.join(format!("{}_{seed:02}.xml", kind.name()));
+                    let config = GenerateConfig {
+                        kind,
+                        seed,
+                        area: None,
+                        out: file,
+                        overwrite,
+                    };
+                    let world = generate(&config, &mut say_rejected)
+                        .with_context(|| format!("generating {} failed", config.out.display()))?;
+                    println!(
+                        "wrote {}: {:.1} m2, {} rooms",
+                        world.file.display(),
+                        world.area,
+                        world.rooms
+                    );
+                    manifest.push(serde_json::json!({
+                        "file": world.file.file_name().map(|n| n.to_string_lossy().into_owned()),
+                        "kind": kind.name(),
+                        "seed": seed,
+                        "sub_seed": world.sub_seed,
+                        "area_m2": (world.area * 10.0).round() / 10.0,
+                        "rooms": world.rooms,
+                        "doors": world.doors,
+                        "regions": world.report.regions,
+                    }));
+                }
+            }
+            let path = out.join("manifest.json");
+            std::fs::write(&path, serde_json::to_string_pretty(&manifest)? + "\n")
+                .with_context(|| format!("cannot write {}", path.display()))?;
+            println!("wrote {}", path.display());
+            Ok(())
+        }
+        WorldCommand::Check {
+            world,
+            spawn,
+            json,
+            plot,
+        } => {
+            let mut loaded = splatloop::world::World::load(&world, &SensorConfig::default())
+                .with_context(|| format!("checking {} failed", world.display()))?;
+            if let Some(pose) = spawn {
+                loaded.set_start(pose);
+            }
+            let (report, plan) = splatloop::world_check::check_world(&loaded)?;
+            if let Some(png) = &plot {
+                let reachable = plan.reachable_from(report.spawn.x, report.spawn.y);
+                splatloop::plot::write_floor_plan_png(png, &plan, &reachable, report.spawn)?;
+            }
+            if json {
+                println!("{}", serde_json::to_string_pretty(&report)?);
+            } else {
+                print_world_report(&world, &report);
+            }
+            if !report.ok() {
+                anyhow::bail!(
+                    "{} has {} problem(s)",
+                    world.display(),
+                    report.problems.len()
+                );
+            }
+            Ok(())
+        }
+    }
+}
+
+fn print_world_report(path: &std::path::Path, r: &splatloop::world_check::WorldReport) {
+    let ((x0, y0), (x1, y1)) = (
+        (r.bounds.0[0], r.bounds.0[1]),
+        (r.bounds.1[0], r.bounds.1[1]),
+    );
+    println!("world: {}", path.display());
+    println!(
+        "bounds: x {x0:.2} .. {x1:.2}, y {y0:.2} .. {y1:.2} m; {} collidable geoms",
+        r.geoms
+    );
+    println!(
+        "floor area (inside the outer walls): {:.1} m2",
+        r.floor_area
+    );
+    println!(
+        "free area (no obstacle at the robot's heights): {:.1} m2",
+        r.free_area
+    );
+    println!(
+        "robot area (clearance {:.2} m): {:.1} m2, {:.1}% reachable from the spawn ({:.2}, {:.2}, yaw {:.2})",
+        r.clearance,
+        r.robot_area,
+        100.0 * r.reachable_share,
+        r.spawn.x,
+        r.spawn.y,
+        r.spawn.theta
+    );
+    println!(
+        "regions (joined only through openings under 1.45 m): {}",
+        r.regions
+    );
+    if r.ok() {
+        println!("problems: none");
+    } else {
+        println!("problems:");
+        for p in &r.problems {
+            println!("  - {p}");
+        }
+    }
 }
 
 fn print_evaluation(e: &splatloop::evaluate::Evaluation) {

@@ -179,3 +179,55 @@ fn too_big(path: &Path) -> SimError {
         std::io::Error::other("the picture is too large"),
     )
 }
+
+/// The floor plan of `world check --plot`: a pixel per cell, north up. Obstacles dark grey,
+/// reachable cells green, cells where the robot fits but cannot get to red, floor too close
+/// to an obstacle beige, outside white; the spawn a blue dot.
+pub fn write_floor_plan_png(
+    path_png: &Path,
+    plan: &crate::floorplan::FloorPlan,
+    reachable: &[bool],
+    spawn: Pose2,
+) -> Result<()> {
+    let [w, h] = plan.size;
+    let outside = plan.outside();
+    let mut rgb = vec![255u8; 3 * w * h];
+    for c in 0..plan.len() {
+        let colour = if plan.is_occupied(c) {
+            [90, 90, 90]
+        } else if reachable[c] {
+            [170, 220, 160]
+        } else if outside[c] {
+            [255, 255, 255]
+        } else if plan.is_free(c) {
+            [230, 60, 50]
+        } else {
+            [236, 228, 210]
+        };
+        let (i, j) = (c % w, c / w);
+        let at = 3 * ((h - 1 - j) * w + i);
+        rgb[at..at + 3].copy_from_slice(&colour);
+    }
+    if let Some(c) = plan.cell_of(spawn.x, spawn.y) {
+        let (ci, cj) = ((c % w) as isize, (c / w) as isize);
+        for dj in -3..=3isize {
+            for di in -3..=3isize {
+                let (i, j) = (ci + di, cj + dj);
+                if di * di + dj * dj <= 9
+                    && i >= 0
+                    && j >= 0
+                    && (i as usize) < w
+                    && (j as usize) < h
+                {
+                    let at = 3 * ((h - 1 - j as usize) * w + i as usize);
+                    rgb[at..at + 3].copy_from_slice(&[40, 80, 220]);
+                }
+            }
+        }
+    }
+    let (pw, ph) = (
+        u32::try_from(w).map_err(|_| too_big(path_png))?,
+        u32::try_from(h).map_err(|_| too_big(path_png))?,
+    );
+    crate::dataset::write_rgb_png(path_png, pw, ph, &rgb)
+}

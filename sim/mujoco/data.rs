@@ -178,6 +178,22 @@ impl Data {
         rotation(slice(self.raw().site_xmat, 9 * self.site_count()), site)
     }
 
+    /// World position of a geom's frame.
+    pub fn geom_position(&self, geom: usize) -> Point3<f64> {
+        point(
+            slice(self.raw().geom_xpos, 3 * self.model.geom_count()),
+            geom,
+        )
+    }
+
+    /// World orientation of a geom's frame.
+    pub fn geom_rotation(&self, geom: usize) -> Matrix3<f64> {
+        rotation(
+            slice(self.raw().geom_xmat, 9 * self.model.geom_count()),
+            geom,
+        )
+    }
+
     fn camera_count(&self) -> usize {
         self.model.raw().ncam as usize
     }

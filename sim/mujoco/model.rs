@@ -88,6 +88,29 @@ impl GeomType {
     }
 }
 
+/// A geom's primitive, as MuJoCo compiled it (sizes in [`Model::geom_size`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Shape {
+    /// An infinite plane.
+    Plane,
+    /// A height field.
+    HeightField,
+    /// A sphere (radius).
+    Sphere,
+    /// A capsule (radius, half-length along z).
+    Capsule,
+    /// An ellipsoid (three semi-axes).
+    Ellipsoid,
+    /// A cylinder (radius, half-height along z).
+    Cylinder,
+    /// A box (three half-sizes).
+    Box,
+    /// A mesh, by mesh id; MuJoCo collides it as its convex hull.
+    Mesh(usize),
+    /// Anything newer MuJoCo versions add (signed-distance fields).
+    Other,
+}
+
 /// A compiled MuJoCo model, owned; freed on drop.
 pub struct Model {
     raw: NonNull<sys::mjModel>,
@@ -259,6 +282,59 @@ impl Model {
             t if t == sys::mjtGeom::mjGEOM_MESH as i32 => GeomType::Mesh,
             _ => GeomType::Curved,
         }
+    }
+
+    /// The exact primitive of a geom, for the host's own geometry (floor plans, export).
+    pub fn geom_shape(&self, geom: usize) -> Shape {
+        let m = self.raw();
+        let t = array(m.geom_type, m.ngeom)[geom];
+        let is = |g: sys::mjtGeom| t == g as i32;
+        if is(sys::mjtGeom::mjGEOM_PLANE) {
+            Shape::Plane
+        } else if is(sys::mjtGeom::mjGEOM_HFIELD) {
+            Shape::HeightField
+        } else if is(sys::mjtGeom::mjGEOM_SPHERE) {
+            Shape::Sphere
+        } else if is(sys::mjtGeom::mjGEOM_CAPSULE) {
+            Shape::Capsule
+        } else if is(sys::mjtGeom::mjGEOM_ELLIPSOID) {
+            Shape::Ellipsoid
+        } else if is(sys::mjtGeom::mjGEOM_CYLINDER) {
+            Shape::Cylinder
+        } else if is(sys::mjtGeom::mjGEOM_BOX) {
+            Shape::Box
+        } else if is(sys::mjtGeom::mjGEOM_MESH) {
+            let mesh = array(m.geom_dataid, m.ngeom)[geom];
+            if mesh >= 0 && mesh < m.nmesh {
+                Shape::Mesh(mesh as usize)
+            } else {
+                Shape::Other
+            }
+        } else {
+            Shape::Other
+        }
+    }
+
+    /// Whether a geom takes part in collisions (contype or conaffinity set): visual-only geoms
+    /// do not stop the robot.
+    pub fn geom_collides(&self, geom: usize) -> bool {
+        let m = self.raw();
+        array(m.geom_contype, m.ngeom)[geom] != 0 || array(m.geom_conaffinity, m.ngeom)[geom] != 0
+    }
+
+    /// A mesh's vertices in the frame of the geoms that use it (MuJoCo recentres meshes at
+    /// compile time and moves the geom frame to match).
+    pub fn mesh_vertices(&self, mesh: usize) -> &[[f32; 3]] {
+        let m = self.raw();
+        if mesh >= m.nmesh as usize {
+            return &[];
+        }
+        let start = array(m.mesh_vertadr, m.nmesh)[mesh] as usize;
+        let count = array(m.mesh_vertnum, m.nmesh)[mesh] as usize;
+        let all = array(m.mesh_vert, 3 * m.nmeshvert);
+        let flat = &all[3 * start..3 * (start + count)];
+        // SAFETY: [f32; 3] has the layout of three consecutive f32s, and `flat` holds 3 * count.
+        unsafe { std::slice::from_raw_parts(flat.as_ptr().cast::<[f32; 3]>(), count) }
     }
 
     /// Size parameters of a geom (radius first for spheres and cylinders).
