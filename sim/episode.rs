@@ -11,6 +11,7 @@ use crate::error::{Result, SimError};
 use crate::evaluate::{evaluate, TestSet};
 use crate::record::Versions;
 use crate::robot::{Pose2, UnicycleCommand};
+use crate::spawn::{place_robot, Spawn};
 use crate::survey::{plan_survey, SurveyConfig, SurveyDriver};
 use crate::world::World;
 use autonomy::mapping::{Frame, Mapper, MapperConfig};
@@ -79,6 +80,8 @@ pub struct RunConfig {
     pub sensor: SensorConfig,
     /// Hidden test views sampled in free space for the evaluation (0: none).
     pub test_views: usize,
+    /// How the start pose is chosen.
+    pub spawn: Spawn,
     /// Splat engine asked for.
     #[serde(skip)]
     pub engine: EngineChoice,
@@ -156,6 +159,8 @@ struct EpisodeFile<'a> {
     command: &'static str,
     config: &'a RunConfig,
     versions: Versions,
+    /// The start pose actually used (`config.spawn` says how it was chosen).
+    start_pose: Pose2,
     final_pose: Pose2,
 }
 
@@ -350,6 +355,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     config.sensor.validate()?;
     let wall = Instant::now();
     let mut world = World::load(&config.world, &config.sensor)?;
+    let start_pose = place_robot(&mut world, config.spawn, config.seed)?;
     let gl = EglContext::new()?;
     let mut camera = world.make_camera(&config.sensor, config.seed, &gl)?;
     let mut writer = DatasetWriter::create(&config.out, config.sensor.max_range, config.overwrite)?;
@@ -616,6 +622,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
         command: "run",
         config,
         versions: Versions::current(&gl),
+        start_pose,
         final_pose,
     })?;
     Ok(metrics)

@@ -7,6 +7,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use splatloop::camera::SensorConfig;
 use splatloop::record::{record, RecordConfig};
 use splatloop::robot::Pose2;
+use splatloop::spawn::{parse_pose, Spawn};
 use std::path::PathBuf;
 
 /// Headless closed-loop active mapping: a MuJoCo unicycle robot with an offscreen RGB-D
@@ -142,7 +143,7 @@ struct RunArgs {
     /// Simulated seconds to explore.
     #[arg(long, default_value_t = 60.0)]
     budget: f64,
-    /// Seed (sensor noise and the hidden test set).
+    /// Seed (sensor noise, the hidden test set and a random spawn).
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Camera frames per simulated second.
@@ -157,6 +158,10 @@ struct RunArgs {
     latency: String,
     #[command(flatten)]
     view: ViewArgs,
+    /// Start pose: site (the world's `spawn` site), random (seeded by --seed, anywhere the
+    /// robot can reach from the site with 0.6 m of room), or x,y,yaw (metres, radians).
+    #[arg(long, default_value = "site", allow_hyphen_values = true)]
+    spawn: Spawn,
     /// Hidden test views for the evaluation, sampled in free space (0: skip).
     #[arg(long, default_value_t = 100)]
     test_views: usize,
@@ -264,18 +269,6 @@ struct RecordArgs {
     /// Start pose `x,y,theta` (metres, radians); default: the world's `spawn` site.
     #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
     start: Option<Pose2>,
-}
-
-fn parse_pose(text: &str) -> Result<Pose2, String> {
-    let values: Vec<f64> = text
-        .split(',')
-        .map(|v| v.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|e| format!("expected x,y,theta: {e}"))?;
-    match values[..] {
-        [x, y, theta] if values.iter().all(|v| v.is_finite()) => Ok(Pose2 { x, y, theta }),
-        _ => Err("expected three finite numbers x,y,theta".into()),
-    }
 }
 
 fn main() -> std::process::ExitCode {
@@ -497,6 +490,7 @@ fn run_run(args: RunArgs) -> Result<()> {
             ..SensorConfig::default()
         },
         test_views: args.test_views,
+        spawn: args.spawn,
         engine: args.view.engine.parse().map_err(anyhow::Error::msg)?,
         overwrite: args.overwrite,
         out: args.out,

@@ -10,6 +10,7 @@ use splatloop::dataset::Dataset;
 use splatloop::episode::{run_episode, Latency, PlannerKind, RunConfig};
 use splatloop::evaluate::{evaluate, TestSet};
 use splatloop::novel_view::{evaluate_map, render_map, RenderConfig};
+use splatloop::spawn::Spawn;
 
 fn config(world: &str, planner: PlannerKind, budget: f64, out: std::path::PathBuf) -> RunConfig {
     RunConfig {
@@ -23,6 +24,7 @@ fn config(world: &str, planner: PlannerKind, budget: f64, out: std::path::PathBu
         planner,
         sensor: SensorConfig::default(),
         test_views: 20,
+        spawn: Spawn::Site,
         engine: EngineChoice::Cpu,
         overwrite: false,
         out,

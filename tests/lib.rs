@@ -7,3 +7,4 @@ mod egl;
 mod episode;
 mod sensor;
 mod support;
+mod worlds;

@@ -18,6 +18,9 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 use std::path::{Component, Path, PathBuf};
 
+/// Centre-line area per m2 of floor wanted: the outer walls' half thickness is added back.
+const AREA_INFLATION: f64 = 1.03;
+
 /// Candidates tried before giving up on a seed.
 const MAX_CANDIDATES: u32 = 64;
 
@@ -111,6 +114,10 @@ pub struct GeneratedWorld {
     pub rooms: usize,
     /// Doors.
     pub doors: usize,
+    /// The doors' clear widths, metres.
+    pub door_widths: Vec<f64>,
+    /// Wall height, metres.
+    pub wall_height: f64,
     /// The check of the written world.
     pub report: WorldReport,
 }
@@ -159,10 +166,19 @@ pub fn generate(
         let area = config
             .area
             .unwrap_or_else(|| rand::Rng::gen_range(&mut rng, lo..=hi));
-        let Some(layout) = config.kind.layout(area, &mut rng) else {
+        // The kinds lay out centre lines; the floor inside the walls is a little smaller.
+        let Some(layout) = config.kind.layout(area * AREA_INFLATION, &mut rng) else {
             on_reject(sub_seed, "the rooms and doors did not fit");
             continue;
         };
+        let floor = layout.floor_area();
+        if !(lo..=hi).contains(&floor) {
+            on_reject(
+                sub_seed,
+                &format!("its floor of {floor:.1} m2 is outside {lo}-{hi} m2"),
+            );
+            continue;
+        }
         let header = mjcf::Header {
             kind: config.kind,
             seed: config.seed,
@@ -193,6 +209,8 @@ pub fn generate(
             area: layout.floor_area(),
             rooms: layout.rooms.iter().filter(|r| r.furnished).count(),
             doors: layout.doors.len(),
+            door_widths: layout.doors.iter().map(|d| d.width).collect(),
+            wall_height: layout.wall_height,
             report,
         });
     }
