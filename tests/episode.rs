@@ -246,3 +246,32 @@ fn a_boxed_in_robot_ends_with_a_recovery_and_a_reason() {
     assert!(dir.path().join("boxed").join("metrics.json").is_file());
     assert!(dir.path().join("boxed").join("map.ply").is_file());
 }
+
+#[test]
+fn a_60_s_rtguide_episode_in_a_generated_world_of_each_kind_has_no_collisions() {
+    // Measured on the CI machine (2026-12-01, seed 3, latency none, 20 hidden views):
+    // apartment_01 12.2 m driven, coverage 16.4%, PSNR 9.5 dB; office_01 3.6 m, 14 recoveries,
+    // 20.6%, 11.1 dB (RT-GuIDE does not leave its room yet); warehouse_01 15.9 m, 27.6%,
+    // 9.5 dB. Coverage is the RT-GuIDE issue's to raise; this test pins the collisions.
+    let dir = tempfile::tempdir().expect("tempdir");
+    for world in ["apartment_01", "office_01", "warehouse_01"] {
+        let config = config(
+            &format!("worlds/suite/{world}.xml"),
+            PlannerKind::RtGuide,
+            60.0,
+            dir.path().join(world),
+        );
+        let metrics = run_episode(&config, &mut |_| {}).expect("episode");
+        eprintln!(
+            "{world}: {:.1} m, {} recoveries, coverage {:.1}%, PSNR {:.1} dB, ended {}",
+            metrics.path_length,
+            metrics.recovery_events,
+            100.0 * metrics.evaluation.coverage,
+            metrics.evaluation.psnr,
+            metrics.ended
+        );
+        assert_eq!(metrics.collision_steps, 0, "{world}");
+        assert_eq!(metrics.frames, 300, "{world}");
+        assert_eq!(metrics.evaluation.views, 20, "{world}");
+    }
+}
