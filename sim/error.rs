@@ -73,6 +73,14 @@ pub enum SimError {
     /// The mapper refused a frame, or writing the map failed.
     #[error("mapping failed: {0}")]
     Mapping(String),
+    /// A scene file (OBJ, MTL, texture) that cannot be imported as it is.
+    #[error("cannot import {path}: {detail}")]
+    BadScene {
+        /// The file at fault.
+        path: PathBuf,
+        /// What is wrong, with the line where there is one.
+        detail: String,
+    },
     /// A dataset on disk is not what the reader expects.
     #[error("malformed dataset file {path}: {detail}")]
     BadDataset {

@@ -16,6 +16,7 @@ pub mod novel_view;
 pub mod plot;
 pub mod record;
 pub mod robot;
+pub mod scene;
 pub mod spawn;
 pub mod survey;
 pub mod world;

@@ -86,6 +86,41 @@ enum WorldCommand {
         #[arg(long)]
         overwrite: bool,
     },
+    /// Import a textured OBJ + MTL scene (Blender, scans) as a world: visual meshes per object
+    /// and material with their diffuse textures or colours, colliders from the scene voxelised
+    /// at 5 cm (merged into boxes), the floor moved to z = 0, a spawn site.
+    Import {
+        /// The OBJ file; its MTL and textures are read from where it names them.
+        scene: PathBuf,
+        /// The file's up axis: y (OBJ's convention, Blender's default) or z.
+        #[arg(long, default_value = "y")]
+        up: String,
+        /// Metres per file unit (0.01 for centimetres).
+        #[arg(long, default_value_t = 1.0)]
+        scale: f64,
+        /// Start pose x,y,yaw in the imported world (default: the free pose with the most room
+        /// near the scene's centre).
+        #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
+        spawn: Option<Pose2>,
+        /// MJCF file to write; meshes and textures go to <name>_assets/ beside it.
+        #[arg(long)]
+        out: PathBuf,
+        /// Replace earlier output.
+        #[arg(long)]
+        overwrite: bool,
+    },
+    /// Export a world's surfaces (primitives and meshes, with materials and textures) as a
+    /// Y-up OBJ + MTL, for Blender and back.
+    Export {
+        /// MJCF world.
+        world: PathBuf,
+        /// OBJ file to write (the MTL and <name>_textures/ go beside it).
+        #[arg(long)]
+        out: PathBuf,
+        /// Replace earlier output.
+        #[arg(long)]
+        overwrite: bool,
+    },
     /// Generate the benchmark suite: PER_KIND worlds of each kind (seeds 1..=PER_KIND) and
     /// manifest.json (file, seed, kind, area, rooms, doors).
     Suite {
@@ -627,6 +662,47 @@ fn run_world(command: WorldCommand) -> Result<()> {
                 world.doors,
                 world.report.geoms,
                 100.0 * world.report.reachable_share
+            );
+            Ok(())
+        }
+        WorldCommand::Import {
+            scene,
+            up,
+            scale,
+            spawn,
+            out,
+            overwrite,
+        } => {
+            let config = splatloop::scene::import::ImportConfig {
+                scene,
+                up: up.parse().map_err(anyhow::Error::msg)?,
+                scale,
+                spawn,
+                out,
+                overwrite,
+            };
+            let started = std::time::Instant::now();
+            let s = splatloop::scene::import::import_scene(&config)
+                .with_context(|| format!("importing {} failed", config.scene.display()))?;
+            let (lo, hi) = s.bounds;
+            println!(
+                "wrote {} in {:.1} s: bounds x {:.2} .. {:.2}, y {:.2} .. {:.2}, z {:.2} .. {:.2} m (floor found at {:.3} m, moved to 0); {} triangles, {} meshes, {} materials ({} textured), {} collider boxes over {} voxels; spawn ({:.2}, {:.2}, yaw {:.2})",
+                s.out.display(), started.elapsed().as_secs_f64(), lo[0], hi[0], lo[1], hi[1], lo[2], hi[2], s.floor_height, s.triangles, s.meshes, s.materials, s.textures, s.colliders, s.voxels, s.spawn.x, s.spawn.y, s.spawn.theta
+            );
+            Ok(())
+        }
+        WorldCommand::Export {
+            world,
+            out,
+            overwrite,
+        } => {
+            let loaded = splatloop::world::World::load(&world, &SensorConfig::default())
+                .with_context(|| format!("exporting {} failed", world.display()))?;
+            let s = splatloop::scene::export::export_world(&loaded, &out, overwrite)
+                .with_context(|| format!("exporting {} failed", world.display()))?;
+            println!(
+                "wrote {}: {} objects, {} triangles, {} materials, {} textures (Y up; import with `splatloop world import`)",
+                s.obj.display(), s.objects, s.triangles, s.materials, s.textures
             );
             Ok(())
         }

@@ -4,7 +4,6 @@
 //! model, so hand-made, generated and imported worlds are judged alike.
 
 use crate::error::Result;
-use crate::evaluate::WORLD_GROUPS;
 use crate::floorplan::FloorPlan;
 use crate::mujoco::ObjKind;
 use crate::robot::Pose2;
@@ -24,6 +23,10 @@ const MIN_REGION_AREA: f64 = 0.25;
 
 /// Geoms overlapping by less than this only touch, metres.
 const TOUCH_TOLERANCE: f64 = 1e-3;
+
+/// Geom groups a floor may be in: every group but the robot's (3), since collision-only
+/// floors (an imported scene's ground plane) are often hidden in groups 4 and 5.
+const FLOOR_GROUPS: u8 = 0b11_0111;
 
 /// Distance between the floor probes along the reachable space, metres.
 const FLOOR_PROBE_SPACING: f64 = 1.0;
@@ -146,7 +149,7 @@ pub fn check_world(world: &World) -> Result<(WorldReport, FloorPlan)> {
         let hit = world.data().ray(
             &Point3::new(x, y, 0.05),
             &down,
-            WORLD_GROUPS,
+            FLOOR_GROUPS,
             Some(world.robot().body),
         );
         !hit.is_some_and(|h| h.distance <= 0.1)

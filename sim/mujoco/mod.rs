@@ -22,7 +22,7 @@ mod model;
 mod render;
 
 pub use data::{Contact, Data, RayHit};
-pub use model::{GeomType, Model, ObjKind, Shape};
+pub use model::{GeomType, MaterialInfo, Model, ObjKind, Shape, TextureInfo};
 pub use render::{RenderFlags, SceneRenderer};
 
 use std::ffi::CStr;

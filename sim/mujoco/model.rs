@@ -22,6 +22,12 @@ pub enum ObjKind {
     Camera,
     /// An actuator.
     Actuator,
+    /// A mesh asset.
+    Mesh,
+    /// A texture.
+    Texture,
+    /// A material.
+    Material,
 }
 
 impl ObjKind {
@@ -33,6 +39,9 @@ impl ObjKind {
             ObjKind::Site => sys::mjtObj::mjOBJ_SITE,
             ObjKind::Camera => sys::mjtObj::mjOBJ_CAMERA,
             ObjKind::Actuator => sys::mjtObj::mjOBJ_ACTUATOR,
+            ObjKind::Mesh => sys::mjtObj::mjOBJ_MESH,
+            ObjKind::Texture => sys::mjtObj::mjOBJ_TEXTURE,
+            ObjKind::Material => sys::mjtObj::mjOBJ_MATERIAL,
         }
     }
 
@@ -45,6 +54,9 @@ impl ObjKind {
             ObjKind::Site => "site",
             ObjKind::Camera => "camera",
             ObjKind::Actuator => "actuator",
+            ObjKind::Mesh => "mesh",
+            ObjKind::Texture => "texture",
+            ObjKind::Material => "material",
         }
     }
 
@@ -56,6 +68,9 @@ impl ObjKind {
             ObjKind::Site => m.nsite,
             ObjKind::Camera => m.ncam,
             ObjKind::Actuator => m.nu,
+            ObjKind::Mesh => m.nmesh,
+            ObjKind::Texture => m.ntex,
+            ObjKind::Material => m.nmat,
         }
     }
 }
@@ -109,6 +124,32 @@ pub enum Shape {
     Mesh(usize),
     /// Anything newer MuJoCo versions add (signed-distance fields).
     Other,
+}
+
+/// What a material says about a surface's look.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MaterialInfo {
+    /// Colour (multiplies the texture).
+    pub rgba: [f32; 4],
+    /// Its texture.
+    pub texture: Option<usize>,
+    /// 2D texture repetitions.
+    pub repeat: [f32; 2],
+    /// Whether the repetitions are per metre rather than per surface.
+    pub uniform: bool,
+}
+
+/// A texture's pixels as MuJoCo holds them.
+#[derive(Debug, Clone, Copy)]
+pub struct TextureInfo<'a> {
+    /// A 2D texture (else a cube or skybox: six square faces stacked).
+    pub flat: bool,
+    /// Width, pixels.
+    pub width: usize,
+    /// Height, pixels (six times the width for a cube).
+    pub height: usize,
+    /// RGB bytes, row by row.
+    pub rgb: &'a [u8],
 }
 
 /// A compiled MuJoCo model, owned; freed on drop.
@@ -335,6 +376,85 @@ impl Model {
         let flat = &all[3 * start..3 * (start + count)];
         // SAFETY: [f32; 3] has the layout of three consecutive f32s, and `flat` holds 3 * count.
         unsafe { std::slice::from_raw_parts(flat.as_ptr().cast::<[f32; 3]>(), count) }
+    }
+
+    /// A geom's colour and material (the material's colour and texture win when it has one).
+    pub fn geom_appearance(&self, geom: usize) -> ([f32; 4], Option<usize>) {
+        let m = self.raw();
+        let rgba = array(m.geom_rgba, 4 * m.ngeom);
+        let material = array(m.geom_matid, m.ngeom)[geom];
+        (
+            [
+                rgba[4 * geom],
+                rgba[4 * geom + 1],
+                rgba[4 * geom + 2],
+                rgba[4 * geom + 3],
+            ],
+            (material >= 0 && material < m.nmat).then_some(material as usize),
+        )
+    }
+
+    /// A material's colour, texture, 2D repetition and whether that repetition is per metre.
+    pub fn material(&self, material: usize) -> MaterialInfo {
+        let m = self.raw();
+        let rgba = array(m.mat_rgba, 4 * m.nmat);
+        let texture = array(m.mat_texid, m.nmat)[material];
+        let repeat = array(m.mat_texrepeat, 2 * m.nmat);
+        MaterialInfo {
+            rgba: [
+                rgba[4 * material],
+                rgba[4 * material + 1],
+                rgba[4 * material + 2],
+                rgba[4 * material + 3],
+            ],
+            texture: (texture >= 0 && texture < m.ntex).then_some(texture as usize),
+            repeat: [repeat[2 * material], repeat[2 * material + 1]],
+            uniform: array(m.mat_texuniform, m.nmat)[material] != 0,
+        }
+    }
+
+    /// A texture's pixels (RGB rows; a cube texture's six faces stacked) and whether it is 2D.
+    pub fn texture(&self, texture: usize) -> TextureInfo<'_> {
+        let m = self.raw();
+        let width = array(m.tex_width, m.ntex)[texture] as usize;
+        let height = array(m.tex_height, m.ntex)[texture] as usize;
+        let start = array(m.tex_adr, m.ntex)[texture] as usize;
+        let all = array(m.tex_rgb, m.ntexdata);
+        let end = (start + 3 * width * height).min(all.len());
+        TextureInfo {
+            flat: array(m.tex_type, m.ntex)[texture] == sys::mjtTexture::mjTEXTURE_2D as i32,
+            width,
+            height,
+            rgb: &all[start.min(end)..end],
+        }
+    }
+
+    /// A mesh's vertex normals, as MuJoCo renders them (one per vertex).
+    pub fn mesh_normals(&self, mesh: usize) -> &[[f32; 3]] {
+        let m = self.raw();
+        if mesh >= m.nmesh as usize {
+            return &[];
+        }
+        let start = array(m.mesh_vertadr, m.nmesh)[mesh] as usize;
+        let count = array(m.mesh_vertnum, m.nmesh)[mesh] as usize;
+        let all = array(m.mesh_normal, 3 * m.nmeshvert);
+        let flat = &all[3 * start..3 * (start + count)];
+        // SAFETY: [f32; 3] has the layout of three consecutive f32s, and `flat` holds 3 * count.
+        unsafe { std::slice::from_raw_parts(flat.as_ptr().cast::<[f32; 3]>(), count) }
+    }
+
+    /// A mesh's triangles, as indices into [`Model::mesh_vertices`].
+    pub fn mesh_faces(&self, mesh: usize) -> &[[i32; 3]] {
+        let m = self.raw();
+        if mesh >= m.nmesh as usize {
+            return &[];
+        }
+        let start = array(m.mesh_faceadr, m.nmesh)[mesh] as usize;
+        let count = array(m.mesh_facenum, m.nmesh)[mesh] as usize;
+        let all = array(m.mesh_face, 3 * m.nmeshface);
+        let flat = &all[3 * start..3 * (start + count)];
+        // SAFETY: [i32; 3] has the layout of three consecutive i32s, and `flat` holds 3 * count.
+        unsafe { std::slice::from_raw_parts(flat.as_ptr().cast::<[i32; 3]>(), count) }
     }
 
     /// Size parameters of a geom (radius first for spheres and cylinders).

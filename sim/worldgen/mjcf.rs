@@ -11,8 +11,8 @@ const WALL_MATERIALS: [&str; 4] = ["plaster", "blue", "brick", "tiles"];
 /// Names of the furniture materials, by an item's material.
 const ITEM_MATERIALS: [&str; 4] = ["wood", "fabric", "stone", "tiles"];
 
-/// A number at fixed precision, never "-0.0000".
-fn n(v: f64) -> String {
+/// A number at fixed precision (4 decimals, trailing zeros dropped), never "-0".
+pub fn n(v: f64) -> String {
     let s = format!("{v:.4}");
     if s.trim_start_matches('-')
         .chars()
@@ -24,7 +24,8 @@ fn n(v: f64) -> String {
     }
 }
 
-fn v3(a: f64, b: f64, c: f64) -> String {
+/// Three numbers as MJCF writes a vector.
+pub fn v3(a: f64, b: f64, c: f64) -> String {
     format!("{} {} {}", n(a), n(b), n(c))
 }
 

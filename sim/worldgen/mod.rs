@@ -251,7 +251,7 @@ fn check_candidate(path: &Path, layout: &Layout) -> Result<WorldReport> {
 /// How a world written into `folder` finds `models/unicycle.xml` and `worlds/assets/`:
 /// relative paths to the splatloop checkout that holds the folder, or else the current
 /// directory's, or else the one this binary was built from.
-fn asset_paths(folder: &Path) -> Result<Paths> {
+pub fn asset_paths(folder: &Path) -> Result<Paths> {
     let absolute =
         |p: &Path| std::fs::canonicalize(p).map_err(|e| SimError::io("cannot resolve", p, e));
     let folder = absolute(folder)?;
@@ -274,7 +274,7 @@ fn asset_paths(folder: &Path) -> Result<Paths> {
     })
 }
 
-use mjcf::Paths;
+pub use mjcf::Paths;
 
 /// `to` relative to the folder `from` (both absolute), with forward slashes.
 pub fn relative(from: &Path, to: &Path) -> String {
