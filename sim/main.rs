@@ -787,10 +787,14 @@ fn print_world_report(path: &std::path::Path, r: &splatloop::world_check::WorldR
         (r.bounds.1[0], r.bounds.1[1]),
     );
     println!("world: {}", path.display());
-    println!(
-        "bounds: x {x0:.2} .. {x1:.2}, y {y0:.2} .. {y1:.2} m; {} collidable geoms",
-        r.geoms
-    );
+    if r.geoms == 0 {
+        println!("bounds: no collidable geoms besides the robot's");
+    } else {
+        println!(
+            "bounds: x {x0:.2} .. {x1:.2}, y {y0:.2} .. {y1:.2} m; {} collidable geoms",
+            r.geoms
+        );
+    }
     println!(
         "floor area (inside the outer walls): {:.1} m2",
         r.floor_area

@@ -145,15 +145,19 @@ pub fn check_world(world: &World) -> Result<(WorldReport, FloorPlan)> {
             .map(|c| plan.centre(c)),
     );
     let down = Vector3::new(0.0, 0.0, -1.0);
-    if let Some([x, y]) = probes.into_iter().find(|&[x, y]| {
-        let hit = world.data().ray(
-            &Point3::new(x, y, 0.05),
-            &down,
-            FLOOR_GROUPS,
-            Some(world.robot().body),
-        );
-        !hit.is_some_and(|h| h.distance <= 0.1)
-    }) {
+    // Three rays a few millimetres apart per probe: one ray can slip down a mesh's edge.
+    let floor_at = |x: f64, y: f64| {
+        [[0.0, 0.0], [0.0031, 0.0017], [-0.0023, 0.0029]]
+            .iter()
+            .any(|d| {
+                let origin = Point3::new(x + d[0], y + d[1], 0.05);
+                let hit = world
+                    .data()
+                    .ray(&origin, &down, FLOOR_GROUPS, Some(world.robot().body));
+                hit.is_some_and(|h| h.distance <= 0.1)
+            })
+    };
+    if let Some([x, y]) = probes.into_iter().find(|&[x, y]| !floor_at(x, y)) {
         problems.push(format!(
             "no floor under ({x:.2}, {y:.2}): the robot would fall (add a ground plane or a floor box with its top at z = 0)"
         ));

@@ -161,6 +161,12 @@ impl SceneRenderer {
                 sys::mjtCatBit::mjCAT_ALL as i32,
                 self.scene.as_mut(),
             );
+            // Bind this renderer's own offscreen buffer: another renderer on the same GL
+            // context (a second world's camera) may have bound its own since.
+            sys::mjr_setBuffer(
+                sys::mjtFramebuffer::mjFB_OFFSCREEN as i32,
+                self.context.as_mut(),
+            );
             sys::mjr_render(viewport, self.scene.as_mut(), self.context.as_ref());
         }
     }

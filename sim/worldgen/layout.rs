@@ -633,8 +633,7 @@ fn random_piece(room: &Rect, style: Furnishing, rng: &mut ChaCha8Rng) -> Option<
             }
         }
         _ => {
-            let (centre, _) =
-                spot_position(room, wall, VASE_RADIUS + 0.02, VASE_RADIUS + 0.02, rng)?;
+            let (centre, _) = spot_position(room, wall, VASE_RADIUS, VASE_RADIUS, rng)?;
             Item::Vase {
                 centre,
                 yaw: rng.gen_range(0.0..std::f64::consts::TAU),
