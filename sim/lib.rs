@@ -3,6 +3,7 @@
 //! data flows one way, sim -> autonomy -> sim.
 
 pub mod bench;
+pub mod bench_worlds;
 pub mod camera;
 pub mod controls;
 pub mod dataset;

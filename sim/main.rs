@@ -164,6 +164,9 @@ enum BenchTarget {
     /// Full RT-GuIDE plans over 1e4-3e6 Gaussians of clutter per collision engine, and
     /// scoring 500 viewpoints over 1e6 Gaussians.
     Plan,
+    /// World generation per kind (4 seeds each), and `world import` of 1e5- and 1e6-triangle
+    /// scenes (a suite world exported and subdivided) with the colliders it builds.
+    World,
 }
 
 #[derive(clap::Args)]
@@ -384,6 +387,41 @@ fn run(command: Command) -> Result<()> {
                 );
                 Ok(())
             }
+            BenchTarget::World => {
+                let dir = tempfile_dir()?;
+                let rows = splatloop::bench_worlds::bench_generate(&dir, 4)?;
+                println!("| kind | seed | candidates | floor m2 | collidable geoms | generate + check ms |");
+                println!("|---|---:|---:|---:|---:|---:|");
+                for r in &rows {
+                    println!(
+                        "| {} | {} | {} | {:.1} | {} | {:.0} |",
+                        r.kind.name(),
+                        r.seed,
+                        r.candidates,
+                        r.area,
+                        r.geoms,
+                        r.seconds * 1e3
+                    );
+                }
+                let scene = if world == std::path::Path::new("worlds/room.xml") {
+                    std::path::PathBuf::from("worlds/suite/apartment_03.xml")
+                } else {
+                    world
+                };
+                let imports =
+                    splatloop::bench_worlds::bench_import(&scene, &dir, &[100_000, 1_000_000])?;
+                println!("import of {} exported and subdivided:", scene.display());
+                println!("| triangles | meshes | solid voxels | collider boxes | import s |");
+                println!("|---:|---:|---:|---:|---:|");
+                for (seconds, s) in &imports {
+                    println!(
+                        "| {} | {} | {} | {} | {:.2} |",
+                        s.triangles, s.meshes, s.voxels, s.colliders, seconds
+                    );
+                }
+                let _ = std::fs::remove_dir_all(&dir);
+                Ok(())
+            }
             BenchTarget::Map => {
                 for rasteriser in distinct_engines(&engine)? {
                     let name = rasteriser.describe();
@@ -420,6 +458,13 @@ fn run(command: Command) -> Result<()> {
             }
         },
     }
+}
+
+/// A fresh scratch folder under the system's temporary directory.
+fn tempfile_dir() -> Result<std::path::PathBuf> {
+    let dir = std::env::temp_dir().join(format!("splatloop-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    Ok(dir)
 }
 
 /// The engines `choices` resolve to, each once: `auto` on a machine without a hardware GPU is
