@@ -79,7 +79,7 @@ pub fn bench_import(
     })?;
     let mut rows = Vec::new();
     for &target in targets {
-        let mut objects: Vec<(String, Option<usize>, Vec<[[f64; 5]; 3]>)> = models
+        let mut objects: Vec<SceneObject> = models
             .iter()
             .map(|m| {
                 let mesh = &m.mesh;
@@ -109,7 +109,7 @@ pub fn bench_import(
             .collect();
         while objects.iter().map(|o| o.2.len()).sum::<usize>() < target {
             for object in &mut objects {
-                object.2 = object.2.iter().flat_map(|t| split(t)).collect();
+                object.2 = object.2.iter().flat_map(split).collect();
             }
         }
         let materials = std::fs::read_to_string(dir.join("base.mtl"))
@@ -149,6 +149,7 @@ pub fn bench_import(
             scene,
             up: Up::Y,
             scale: 1.0,
+            floor: None,
             spawn: Some(loaded.start()),
             out: dir.join(format!("imported_{target}.xml")),
             overwrite: true,
@@ -160,8 +161,14 @@ pub fn bench_import(
     Ok(rows)
 }
 
+/// A triangle's corners: position (x, y, z) and texture coordinates (u, v).
+type TexturedTriangle = [[f64; 5]; 3];
+
+/// An object of the scene: its name, material and triangles.
+type SceneObject = (String, Option<usize>, Vec<TexturedTriangle>);
+
 /// A triangle (positions and texture coordinates) split at its edge midpoints into four.
-fn split(t: &[[f64; 5]; 3]) -> [[[f64; 5]; 3]; 4] {
+fn split(t: &TexturedTriangle) -> [TexturedTriangle; 4] {
     let mid = |a: &[f64; 5], b: &[f64; 5]| [0, 1, 2, 3, 4].map(|k| 0.5 * (a[k] + b[k]));
     let (ab, bc, ca) = (mid(&t[0], &t[1]), mid(&t[1], &t[2]), mid(&t[2], &t[0]));
     [[t[0], ab, ca], [ab, t[1], bc], [ca, bc, t[2]], [ab, bc, ca]]

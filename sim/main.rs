@@ -98,6 +98,10 @@ enum WorldCommand {
         /// Metres per file unit (0.01 for centimetres).
         #[arg(long, default_value_t = 1.0)]
         scale: f64,
+        /// Height of the floor in the scene, metres after --up and --scale (default: the
+        /// largest horizontal surface in the lowest third of the scene).
+        #[arg(long, allow_hyphen_values = true)]
+        floor: Option<f64>,
         /// Start pose x,y,yaw in the imported world (default: the free pose with the most room
         /// near the scene's centre).
         #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
@@ -714,6 +718,7 @@ fn run_world(command: WorldCommand) -> Result<()> {
             scene,
             up,
             scale,
+            floor,
             spawn,
             out,
             overwrite,
@@ -722,6 +727,7 @@ fn run_world(command: WorldCommand) -> Result<()> {
                 scene,
                 up: up.parse().map_err(anyhow::Error::msg)?,
                 scale,
+                floor,
                 spawn,
                 out,
                 overwrite,

@@ -43,6 +43,8 @@ pub struct ImportConfig {
     pub up: Up,
     /// Metres per file unit.
     pub scale: f64,
+    /// The floor's height in the scene (after turning and scaling), metres; else found.
+    pub floor: Option<f64>,
     /// The start pose; else the free pose with the most room near the scene's centre.
     pub spawn: Option<Pose2>,
     /// The MJCF to write; meshes and textures go to `<stem>_assets/` beside it.
@@ -206,9 +208,13 @@ pub fn import_scene(config: &ImportConfig) -> Result<ImportSummary> {
     if extent < 1.0 {
         return Err(bad_scene(&config.scene, format!("the scene is {extent:.2} m across at --scale {}: too small for the robot; if its units are not metres, give --scale (for example 10 or 100)", config.scale)));
     }
-    let floor = find_floor(&pieces, lo[2], hi[2]).ok_or_else(|| bad_scene(&config.scene, format!(
-        "no floor: no upward-facing surface of {MIN_FLOOR_AREA} m2 or more near the bottom of the scene; check --up ({} now)", match config.up { Up::Y => "y", Up::Z => "z" }
-    )))?;
+    let floor = match config.floor {
+        Some(z) if z.is_finite() => z,
+        Some(z) => return Err(SimError::InvalidArgument { what: "floor", detail: format!("{z}; give the floor's height in metres") }),
+        None => find_floor(&pieces, lo[2], hi[2]).ok_or_else(|| bad_scene(&config.scene, format!(
+        "no floor: no horizontal surface of {MIN_FLOOR_AREA} m2 or more in the lowest third of the scene; check --up ({} now) or give its height with --floor", match config.up { Up::Y => "y", Up::Z => "z" }
+    )))?,
+    };
     for piece in &mut pieces {
         for t in &mut piece.triangles {
             for p in t.iter_mut() {

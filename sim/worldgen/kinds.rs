@@ -8,6 +8,9 @@ use rand_chacha::ChaCha8Rng;
 /// Wall thickness of every generated world, metres.
 const WALL: f64 = 0.12;
 
+/// Narrowest aisle beside a rack in a warehouse, metres.
+const AISLE: f64 = 1.5;
+
 /// Smallest room side, metres.
 const MIN_ROOM_SIDE: f64 = 2.6;
 
@@ -56,7 +59,7 @@ pub fn apartment(area: f64, rng: &mut ChaCha8Rng) -> Option<Layout> {
     layout.place_spawn(rng);
     for room in layout.rooms.clone() {
         let count = ((room.floor.area() / 6.0).round() as usize).clamp(2, 6);
-        furnish(&mut layout, room.floor, count, Furnishing::Home, rng);
+        furnish(&mut layout, room.floor, count, Furnishing::Home, &[], rng);
     }
     Some(layout)
 }
@@ -144,7 +147,7 @@ pub fn office(area: f64, rng: &mut ChaCha8Rng) -> Option<Layout> {
     layout.place_spawn(rng);
     for room in layout.rooms.clone().into_iter().filter(|r| r.furnished) {
         let count = ((room.floor.area() / 5.0).round() as usize).clamp(2, 5);
-        furnish(&mut layout, room.floor, count, Furnishing::Office, rng);
+        furnish(&mut layout, room.floor, count, Furnishing::Office, &[], rng);
     }
     Some(layout)
 }
@@ -238,13 +241,38 @@ pub fn warehouse(area: f64, rng: &mut ChaCha8Rng) -> Option<Layout> {
             x += run + rng.gen_range(1.7..2.6);
         }
     }
+    // Clutter in the hall keeps every aisle at least AISLE wide.
+    let aisles: Vec<Rect> = layout
+        .items
+        .iter()
+        .map(|rack| {
+            let b = rack.bounds();
+            Rect::new(
+                [b.lo[0] - AISLE, b.lo[1] - AISLE],
+                [b.hi[0] + AISLE, b.hi[1] + AISLE],
+            )
+        })
+        .collect();
     for room in layout.rooms.clone() {
-        let count = if room.furnished {
-            ((room.floor.area() / 6.0).round() as usize).clamp(2, 4)
+        let (count, keep_clear) = if room.furnished {
+            (
+                ((room.floor.area() / 6.0).round() as usize).clamp(2, 4),
+                &[][..],
+            )
         } else {
-            ((room.floor.area() / 25.0).round() as usize).clamp(3, 10)
+            (
+                ((room.floor.area() / 25.0).round() as usize).clamp(3, 10),
+                &aisles[..],
+            )
         };
-        furnish(&mut layout, room.floor, count, Furnishing::Storage, rng);
+        furnish(
+            &mut layout,
+            room.floor,
+            count,
+            Furnishing::Storage,
+            keep_clear,
+            rng,
+        );
     }
     Some(layout)
 }

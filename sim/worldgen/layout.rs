@@ -528,12 +528,14 @@ pub enum Furnishing {
     Storage,
 }
 
-/// Furnishes `room` with up to `count` pieces that fit the spacing rules.
+/// Furnishes `room` with up to `count` pieces that fit the spacing rules and stay off
+/// `keep_clear`.
 pub fn furnish(
     layout: &mut Layout,
     room: Rect,
     count: usize,
     style: Furnishing,
+    keep_clear: &[Rect],
     rng: &mut ChaCha8Rng,
 ) {
     let mut placed = 0;
@@ -541,7 +543,7 @@ pub fn furnish(
     while placed < count && attempts < 40 * count.max(1) {
         attempts += 1;
         if let Some(item) = random_piece(&room, style, rng) {
-            if layout.fits(&item, &room, &[]) {
+            if layout.fits(&item, &room, keep_clear) {
                 layout.items.push(item);
                 placed += 1;
             }
