@@ -339,16 +339,19 @@ struct Piece {
     uvs: Vec<[Option<[f64; 2]>; 3]>,
 }
 
-fn area(t: &[[f64; 3]; 3]) -> f64 {
-    let (a, b) = (
-        [0, 1, 2].map(|k| t[1][k] - t[0][k]),
-        [0, 1, 2].map(|k| t[2][k] - t[0][k]),
-    );
-    let c = [
+/// A triangle's normal, not normalised: its length is twice the triangle's area.
+fn normal(t: &[[f64; 3]; 3]) -> [f64; 3] {
+    let a = [0, 1, 2].map(|k| t[1][k] - t[0][k]);
+    let b = [0, 1, 2].map(|k| t[2][k] - t[0][k]);
+    [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
         a[0] * b[1] - a[1] * b[0],
-    ];
+    ]
+}
+
+fn area(t: &[[f64; 3]; 3]) -> f64 {
+    let c = normal(t);
     0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
 }
 
@@ -359,11 +362,7 @@ fn find_floor(pieces: &[Piece], bottom: f64, top: f64) -> Option<f64> {
     let limit = bottom + (top - bottom) / 3.0;
     let mut bins: std::collections::BTreeMap<i64, (f64, f64)> = std::collections::BTreeMap::new();
     for t in pieces.iter().flat_map(|p| &p.triangles) {
-        let (a, b) = (
-            [0, 1, 2].map(|k| t[1][k] - t[0][k]),
-            [0, 1, 2].map(|k| t[2][k] - t[0][k]),
-        );
-        let nz = a[0] * b[1] - a[1] * b[0];
+        let nz = normal(t)[2];
         let size = area(t);
         let z = (t[0][2] + t[1][2] + t[2][2]) / 3.0;
         if size > 0.0 && (0.5 * nz.abs() / size) > 0.95 && z <= limit {
@@ -473,15 +472,8 @@ fn write_assets(
 /// triangle 1 mm behind its plane, which no camera sees, so rays find it.
 fn flat_mesh_sliver(triangles: &[[[f64; 3]; 3]]) -> Option<[[f64; 3]; 3]> {
     let t = triangles.first()?;
-    let (a, b) = (
-        [0, 1, 2].map(|k| t[1][k] - t[0][k]),
-        [0, 1, 2].map(|k| t[2][k] - t[0][k]),
-    );
-    let c = [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ];
+    let a = [0, 1, 2].map(|k| t[1][k] - t[0][k]);
+    let c = normal(t);
     let length = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
     let normal = c.map(|v| v / length);
     let distance = |p: &[f64; 3]| {

@@ -14,6 +14,19 @@ const AISLE: f64 = 1.5;
 /// Smallest room side, metres.
 const MIN_ROOM_SIDE: f64 = 2.6;
 
+/// Furnished rooms "room 1", "room 2", ... from their centre-line rectangles.
+fn numbered_rooms(rooms: &[Rect]) -> Vec<Room> {
+    rooms
+        .iter()
+        .enumerate()
+        .map(|(k, r)| Room {
+            name: format!("room {}", k + 1),
+            floor: r.shrink(0.5 * WALL),
+            furnished: true,
+        })
+        .collect()
+}
+
 fn door_width(rng: &mut ChaCha8Rng) -> f64 {
     rng.gen_range(1.0..=1.4)
 }
@@ -47,15 +60,7 @@ pub fn apartment(area: f64, rng: &mut ChaCha8Rng) -> Option<Layout> {
             layout.add_door(w, door_width(rng), None, rng);
         }
     }
-    layout.rooms = rooms
-        .iter()
-        .enumerate()
-        .map(|(k, r)| Room {
-            name: format!("room {}", k + 1),
-            floor: r.shrink(0.5 * WALL),
-            furnished: true,
-        })
-        .collect();
+    layout.rooms = numbered_rooms(&rooms);
     layout.place_spawn(rng);
     for room in layout.rooms.clone() {
         let count = ((room.floor.area() / 6.0).round() as usize).clamp(2, 6);
@@ -129,15 +134,7 @@ pub fn office(area: f64, rng: &mut ChaCha8Rng) -> Option<Layout> {
         [outer.lo[0], shift + corridor_lo],
         [outer.hi[0], shift + corridor_hi],
     );
-    layout.rooms = rooms
-        .iter()
-        .enumerate()
-        .map(|(k, r)| Room {
-            name: format!("room {}", k + 1),
-            floor: r.shrink(0.5 * WALL),
-            furnished: true,
-        })
-        .collect();
+    layout.rooms = numbered_rooms(&rooms);
     layout.rooms.push(Room {
         name: "corridor".into(),
         floor: corridor_rect.shrink(0.5 * WALL),
@@ -189,15 +186,7 @@ pub fn warehouse(area: f64, rng: &mut ChaCha8Rng) -> Option<Layout> {
         }
     }
     let hall = Rect::new([strip_x, outer.lo[1]], [outer.hi[0], outer.hi[1]]).shrink(0.5 * WALL);
-    layout.rooms = rooms
-        .iter()
-        .enumerate()
-        .map(|(k, r)| Room {
-            name: format!("room {}", k + 1),
-            floor: r.shrink(0.5 * WALL),
-            furnished: true,
-        })
-        .collect();
+    layout.rooms = numbered_rooms(&rooms);
     layout.rooms.push(Room {
         name: "hall".into(),
         floor: hall,
