@@ -249,10 +249,11 @@ fn a_boxed_in_robot_ends_with_a_recovery_and_a_reason() {
 
 #[test]
 fn a_60_s_rtguide_episode_in_a_generated_world_of_each_kind_has_no_collisions() {
-    // Measured on the CI machine (2026-12-01, seed 3, latency none, 20 hidden views):
-    // apartment_01 12.2 m driven, coverage 16.4%, PSNR 9.5 dB; office_01 3.6 m, 14 recoveries,
-    // 20.6%, 11.1 dB (RT-GuIDE does not leave its room yet); warehouse_01 15.9 m, 27.6%,
-    // 9.5 dB. Coverage is the RT-GuIDE issue's to raise; this test pins the collisions.
+    // Measured on the CI machine (2026-12-01, seed 3, latency none, 20 hidden views, the
+    // committed suite): apartment_01 1.2 m driven, 16 recoveries, ended stuck at 54 s in an
+    // open room (coverage 18.7%, PSNR 9.1 dB); office_01 5.9 m, 8 recoveries, 21.7%, 10.9 dB;
+    // warehouse_01 16.6 m, 0 recoveries, 32.4%, 10.0 dB. Coverage is the RT-GuIDE issue's to
+    // raise; this test pins the collisions.
     let dir = tempfile::tempdir().expect("tempdir");
     for world in ["apartment_01", "office_01", "warehouse_01"] {
         let config = config(
