@@ -64,6 +64,19 @@ impl SensorConfig {
                 detail: format!("{} must be a positive number of metres", self.max_range),
             });
         }
+        // 16-bit depth PNGs at 5000 per metre end at 65535 / 5000 = 13.107 m.
+        let deepest = f64::from(u16::MAX) / crate::dataset::DEPTH_SCALE;
+        if self.max_range > deepest {
+            return Err(SimError::InvalidArgument {
+                what: "max range",
+                detail: format!(
+                    "{} m is beyond what a 16-bit depth PNG at {} per metre holds ({deepest:.3} m); give at most {:.1}",
+                    self.max_range,
+                    crate::dataset::DEPTH_SCALE,
+                    (deepest * 10.0).floor() / 10.0
+                ),
+            });
+        }
         if let Some(sigma) = self.depth_noise_sigma {
             if !(sigma.is_finite() && sigma >= 0.0) {
                 return Err(SimError::InvalidArgument {

@@ -13,7 +13,7 @@ pub const PATTERNS: &[(&str, &str)] = &[
     ("spin", "turn in place at 0.5 rad/s"),
     ("straight", "v = 0.4 m/s straight ahead"),
     (
-        "survey",
+        "arcs",
         "alternate 4 s of driving a gentle left arc with 2 s turns in place",
     ),
 ];

@@ -20,6 +20,8 @@ use autonomy::planner::{CollisionEngine, PlanFailure, PlannerConfig, Recovery, R
 use autonomy::splat::{EngineChoice, Rasteriser};
 use serde::Serialize;
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// How compute time relates to simulated time.
@@ -88,6 +90,9 @@ pub struct RunConfig {
     /// Replace an earlier episode in `out`.
     #[serde(skip)]
     pub overwrite: bool,
+    /// Set by a signal handler to stop at the next tick (the episode is still written).
+    #[serde(skip)]
+    pub stop: StopRequest,
     /// Episode folder.
     #[serde(skip)]
     pub out: PathBuf,
@@ -355,7 +360,18 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     config.sensor.validate()?;
     let wall = Instant::now();
     let mut world = World::load(&config.world, &config.sensor)?;
+    let physics_rate = 1.0 / world.model().timestep();
+    if config.camera_rate > physics_rate {
+        return Err(SimError::InvalidArgument {
+            what: "camera rate",
+            detail: format!(
+                "{} frames/s is faster than the physics ({physics_rate:.0} steps/s), which a frame is taken at; give at most {physics_rate:.0}",
+                config.camera_rate
+            ),
+        });
+    }
     let start_pose = place_robot(&mut world, config.spawn, config.seed)?;
+    crate::world_check::require_floor(&world)?;
     let gl = EglContext::new()?;
     let mut camera = world.make_camera(&config.sensor, config.seed, &gl)?;
     let mut writer = DatasetWriter::create(&config.out, config.sensor.max_range, config.overwrite)?;
@@ -409,189 +425,205 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     let mut recent_delays = std::collections::VecDeque::from([0.0f64]);
     let mut ended = String::from("budget");
     let mut last_touch = f64::NEG_INFINITY;
-    for step in 0..steps {
-        let time = world.data().time();
-        if time + 0.5 * timestep >= next_frame {
-            let t0 = Instant::now();
-            camera.capture_into(world.data(), &mut frame)?;
-            writer.write_frame(&frame)?;
-            camera_times.push(t0.elapsed().as_secs_f64());
-            have_frame = true;
-            next_frame += frame_period;
-        }
-        if let Some(p) = pending.take() {
-            if time + 0.5 * timestep >= p.start {
-                current = p;
-            } else {
-                pending = Some(p);
+    // The tick loop; an error ends it like a signal does, and the episode is still written.
+    let outcome: Result<()> = (|| {
+        for step in 0..steps {
+            if let Some(signal) = config.stop.requested() {
+                ended = format!(
+                    "interrupted at t = {:.1} s by {}",
+                    world.data().time(),
+                    StopRequest::signal_name(signal)
+                );
+                break;
             }
-        }
-        if have_frame && time + 0.5 * timestep >= next_think {
-            next_think += config.think_period;
-            let t0 = Instant::now();
-            let observation = Frame::from_rgb8(&frame.rgb, frame.depth.clone());
-            mapper
-                .integrate(
-                    &observation,
-                    &frame.camera.world_from_camera.to_homogeneous(),
-                    &frame.camera.intrinsics,
-                )
-                .map_err(|e| SimError::Mapping(e.to_string()))?;
-            let t1 = Instant::now();
-            let pose = world.pose();
-            mapping_times.push((t1 - t0).as_secs_f64());
-            // A recovery manoeuvre runs to its end: replanning every second would cut a
-            // back-off's turn short and start it again, and the robot would never get out.
-            let recovering = {
-                let active = pending.as_ref().unwrap_or(&current);
-                active.recovery && time + 0.5 * timestep < active.end()
-            };
-            if survey.is_none() && !recovering {
-                // With wall latency the new schedule starts after the compute delay, so it is
-                // planned from where the current one will have taken the robot by then; the
-                // delay is estimated by the slowest of the last three thinks.
-                let lead = match config.latency {
-                    Latency::Wall => recent_delays.iter().copied().fold(0.0, f64::max),
-                    Latency::None => 0.0,
-                };
-                let active = pending.as_ref().unwrap_or(&current);
-                let robot = predict(pose, active, time, lead);
-                // No progress for 10 s: back off and replan.
-                let no_progress = time - progress_check.0 >= 10.0
-                    && (pose.x - progress_check.1.x).hypot(pose.y - progress_check.1.y) < 0.2;
-                let plan = if no_progress {
-                    Err(None)
+            let time = world.data().time();
+            if time + 0.5 * timestep >= next_frame {
+                let t0 = Instant::now();
+                camera.capture_into(world.data(), &mut frame)?;
+                writer.write_frame(&frame)?;
+                camera_times.push(t0.elapsed().as_secs_f64());
+                have_frame = true;
+                next_frame += frame_period;
+            }
+            if let Some(p) = pending.take() {
+                if time + 0.5 * timestep >= p.start {
+                    current = p;
                 } else {
-                    planner.plan(mapper.map(), robot).map_err(Some)
+                    pending = Some(p);
+                }
+            }
+            if have_frame && time + 0.5 * timestep >= next_think {
+                next_think += config.think_period;
+                let t0 = Instant::now();
+                let observation = Frame::from_rgb8(&frame.rgb, frame.depth.clone());
+                mapper
+                    .integrate(
+                        &observation,
+                        &frame.camera.world_from_camera.to_homogeneous(),
+                        &frame.camera.intrinsics,
+                    )
+                    .map_err(|e| SimError::Mapping(e.to_string()))?;
+                let t1 = Instant::now();
+                let pose = world.pose();
+                mapping_times.push((t1 - t0).as_secs_f64());
+                // A recovery manoeuvre runs to its end: replanning every second would cut a
+                // back-off's turn short and start it again, and the robot would never get out.
+                let recovering = {
+                    let active = pending.as_ref().unwrap_or(&current);
+                    active.recovery && time + 0.5 * timestep < active.end()
                 };
-                let t2 = Instant::now();
-                planning_times.push((t2 - t1).as_secs_f64());
-                let start = match config.latency {
-                    Latency::Wall => {
-                        let delay = (t2 - t0).as_secs_f64();
-                        recent_delays.push_back(delay);
-                        if recent_delays.len() > 3 {
-                            recent_delays.pop_front();
+                if survey.is_none() && !recovering {
+                    // With wall latency the new schedule starts after the compute delay, so it is
+                    // planned from where the current one will have taken the robot by then; the
+                    // delay is estimated by the slowest of the last three thinks.
+                    let lead = match config.latency {
+                        Latency::Wall => recent_delays.iter().copied().fold(0.0, f64::max),
+                        Latency::None => 0.0,
+                    };
+                    let active = pending.as_ref().unwrap_or(&current);
+                    let robot = predict(pose, active, time, lead);
+                    // No progress for 10 s: back off and replan.
+                    let no_progress = time - progress_check.0 >= 10.0
+                        && (pose.x - progress_check.1.x).hypot(pose.y - progress_check.1.y) < 0.2;
+                    let plan = if no_progress {
+                        Err(None)
+                    } else {
+                        planner.plan(mapper.map(), robot).map_err(Some)
+                    };
+                    let t2 = Instant::now();
+                    planning_times.push((t2 - t1).as_secs_f64());
+                    let start = match config.latency {
+                        Latency::Wall => {
+                            let delay = (t2 - t0).as_secs_f64();
+                            recent_delays.push_back(delay);
+                            if recent_delays.len() > 3 {
+                                recent_delays.pop_front();
+                            }
+                            time + delay.max(lead)
                         }
-                        time + delay.max(lead)
+                        Latency::None => time,
+                    };
+                    if let Ok(p) = &plan {
+                        tracing::debug!(
+                            "t = {time:.1} s at ({:.2}, {:.2}): goal ({:.2}, {:.2}), guidance {:.2?}, {} candidates, xi {}, controls {:?}",
+                            robot.x, robot.y, p.local_goal[0], p.local_goal[1], p.guidance, p.candidates, p.information, p.controls
+                        );
                     }
-                    Latency::None => time,
-                };
-                if let Ok(p) = &plan {
-                    tracing::debug!(
-                        "t = {time:.1} s at ({:.2}, {:.2}): goal ({:.2}, {:.2}), guidance {:.2?}, {} candidates, xi {}, controls {:?}",
-                        robot.x, robot.y, p.local_goal[0], p.local_goal[1], p.guidance, p.candidates, p.information, p.controls
+                    let recovered = plan.is_err();
+                    let schedule = match plan {
+                        Ok(p) => Schedule {
+                            start,
+                            period: 1.0,
+                            recovery: false,
+                            controls: p
+                                .controls
+                                .iter()
+                                .map(|u| UnicycleCommand { v: u.v, w: u.w })
+                                .collect(),
+                        },
+                        Err(failure) => {
+                            recovery_events += 1;
+                            let (name, kind, away) = match &failure {
+                                Some(PlanFailure::StartInCollision { away }) => (
+                                    "StartInCollision".to_owned(),
+                                    Recovery::BackOff,
+                                    Some(*away),
+                                ),
+                                Some(f) => (format!("{f:?}"), f.recovery(), None),
+                                None => ("NoProgress".to_owned(), Recovery::BackOff, None),
+                            };
+                            tracing::info!(
+                                "t = {time:.1} s: {} -> recovery {kind:?}",
+                                failure.as_ref().map_or(
+                                    "no progress for 10 s".to_owned(),
+                                    PlanFailure::to_string
+                                )
+                            );
+                            *failures.entry(name).or_insert(0) += 1;
+                            progress_check = (time, pose);
+                            recovery_schedule(kind, start, robot.theta, away)
+                        }
+                    };
+                    if time - progress_check.0 >= 10.0 {
+                        progress_check = (time, pose);
+                    }
+                    pending = Some(schedule);
+                    if let Some(reason) = stuck.update(time, pose, recovered) {
+                        tracing::warn!("t = {time:.1} s: {reason}");
+                        ended = reason;
+                        break;
+                    }
+                }
+                if !tests.surface.is_empty() && time + 0.5 * timestep >= next_coverage {
+                    next_coverage += 10.0;
+                    coverage = Some(autonomy::metrics::coverage(
+                        &tests.surface,
+                        &mapper.map().gaussians.means,
+                        crate::evaluate::COVERAGE_RADIUS,
+                    ));
+                }
+                on_progress(Progress {
+                    time,
+                    gaussians: mapper.map().len(),
+                    coverage,
+                });
+            }
+            let command = match survey.as_mut() {
+                Some(driver) => {
+                    let command = driver.command(world.pose());
+                    if driver.remaining() == 0 {
+                        ended = String::from("survey complete");
+                        break;
+                    }
+                    command
+                }
+                None => current.at(time),
+            };
+            let t0 = Instant::now();
+            world.step(command)?;
+            physics_times.push(t0.elapsed().as_secs_f64());
+            if let Some(contact) = world.robot_collisions().next() {
+                // One warning per contact episode: contacts flicker from step to step.
+                if time - last_touch > 0.5 {
+                    let other = if world.robot().owns_geom(contact.geom1) {
+                        contact.geom2
+                    } else {
+                        contact.geom1
+                    };
+                    let name = world
+                        .model()
+                        .name(crate::mujoco::ObjKind::Geom, other)
+                        .unwrap_or_else(|| format!("geom {other}"));
+                    tracing::warn!(
+                        "t = {:.1} s: the robot touches {name} at ({:.2}, {:.2})",
+                        time,
+                        contact.position.x,
+                        contact.position.y
                     );
                 }
-                let recovered = plan.is_err();
-                let schedule = match plan {
-                    Ok(p) => Schedule {
-                        start,
-                        period: 1.0,
-                        recovery: false,
-                        controls: p
-                            .controls
-                            .iter()
-                            .map(|u| UnicycleCommand { v: u.v, w: u.w })
-                            .collect(),
-                    },
-                    Err(failure) => {
-                        recovery_events += 1;
-                        let (name, kind, away) = match &failure {
-                            Some(PlanFailure::StartInCollision { away }) => (
-                                "StartInCollision".to_owned(),
-                                Recovery::BackOff,
-                                Some(*away),
-                            ),
-                            Some(f) => (format!("{f:?}"), f.recovery(), None),
-                            None => ("NoProgress".to_owned(), Recovery::BackOff, None),
-                        };
-                        tracing::info!(
-                            "t = {time:.1} s: {} -> recovery {kind:?}",
-                            failure
-                                .as_ref()
-                                .map_or("no progress for 10 s".to_owned(), PlanFailure::to_string)
-                        );
-                        *failures.entry(name).or_insert(0) += 1;
-                        progress_check = (time, pose);
-                        recovery_schedule(kind, start, robot.theta, away)
-                    }
-                };
-                if time - progress_check.0 >= 10.0 {
-                    progress_check = (time, pose);
-                }
-                pending = Some(schedule);
-                if let Some(reason) = stuck.update(time, pose, recovered) {
-                    tracing::warn!("t = {time:.1} s: {reason}");
-                    ended = reason;
-                    break;
-                }
+                last_touch = time;
+                collision_steps += 1;
             }
-            if !tests.surface.is_empty() && time + 0.5 * timestep >= next_coverage {
-                next_coverage += 10.0;
-                coverage = Some(autonomy::metrics::coverage(
-                    &tests.surface,
-                    &mapper.map().gaussians.means,
-                    crate::evaluate::COVERAGE_RADIUS,
-                ));
+            let pose = world.pose();
+            path_length += (pose.x - last_pose.x).hypot(pose.y - last_pose.y);
+            last_pose = pose;
+            if (step + 1) % 50 == 0 {
+                path.push(pose);
             }
-            on_progress(Progress {
-                time,
-                gaussians: mapper.map().len(),
-                coverage,
-            });
         }
-        let command = match survey.as_mut() {
-            Some(driver) => {
-                let command = driver.command(world.pose());
-                if driver.remaining() == 0 {
-                    ended = String::from("survey complete");
-                    break;
-                }
-                command
-            }
-            None => current.at(time),
-        };
-        let t0 = Instant::now();
-        world.step(command)?;
-        physics_times.push(t0.elapsed().as_secs_f64());
-        if let Some(contact) = world.robot_collisions().next() {
-            // One warning per contact episode: contacts flicker from step to step.
-            if time - last_touch > 0.5 {
-                let other = if world.robot().owns_geom(contact.geom1) {
-                    contact.geom2
-                } else {
-                    contact.geom1
-                };
-                let name = world
-                    .model()
-                    .name(crate::mujoco::ObjKind::Geom, other)
-                    .unwrap_or_else(|| format!("geom {other}"));
-                tracing::warn!(
-                    "t = {:.1} s: the robot touches {name} at ({:.2}, {:.2})",
-                    time,
-                    contact.position.x,
-                    contact.position.y
-                );
-            }
-            last_touch = time;
-            collision_steps += 1;
-        }
-        let pose = world.pose();
-        path_length += (pose.x - last_pose.x).hypot(pose.y - last_pose.y);
-        last_pose = pose;
-        if (step + 1) % 50 == 0 {
-            path.push(pose);
-        }
+        Ok(())
+    })();
+    if let Err(e) = &outcome {
+        ended = format!("error at t = {:.1} s: {}", world.data().time(), e.chain());
     }
     path.push(world.pose());
-    autonomy::ply::write(mapper.map(), &config.out.join("map.ply"))
+    autonomy::ply::write(mapper.map(), &writer.dir().join("map.ply"))
         .map_err(|e| SimError::Mapping(e.to_string()))?;
     let simulated = world.data().time();
     let final_pose = world.pose();
     let evaluation = evaluate(&world, &mut camera, mapper.engine(), mapper.map(), &tests)?;
     crate::plot::write_trajectory_png(
-        &config.out.join("trajectory.png"),
+        &writer.dir().join("trajectory.png"),
         &world,
         &path,
         mapper.map(),
@@ -617,7 +649,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
         peak_memory_bytes: peak_memory_bytes(),
         evaluation,
     };
-    crate::dataset::write_json(&config.out.join("metrics.json"), &metrics)?;
+    crate::dataset::write_json(&writer.dir().join("metrics.json"), &metrics)?;
     writer.finish(&EpisodeFile {
         command: "run",
         config,
@@ -625,5 +657,40 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
         start_pose,
         final_pose,
     })?;
-    Ok(metrics)
+    // Written in full; the tick loop's own error, if any, is still the run's result.
+    outcome.map(|()| metrics)
+}
+
+/// A request to stop the episode at its next tick, set from a signal handler: 0 while none
+/// came, else the exit code the process should end with (130 for SIGINT, 143 for SIGTERM).
+#[derive(Debug, Clone, Default)]
+pub struct StopRequest(Arc<AtomicUsize>);
+
+impl StopRequest {
+    /// Exit code of SIGINT (128 + 2).
+    pub const SIGINT: usize = 130;
+    /// Exit code of SIGTERM (128 + 15).
+    pub const SIGTERM: usize = 143;
+
+    /// The flag a signal handler stores its exit code into.
+    pub fn flag(&self) -> Arc<AtomicUsize> {
+        Arc::clone(&self.0)
+    }
+
+    /// The exit code asked for, if a stop was requested.
+    pub fn requested(&self) -> Option<usize> {
+        match self.0.load(Ordering::Relaxed) {
+            0 => None,
+            code => Some(code),
+        }
+    }
+
+    /// The signal behind an exit code, as a person names it.
+    pub fn signal_name(code: usize) -> &'static str {
+        match code {
+            Self::SIGINT => "SIGINT",
+            Self::SIGTERM => "SIGTERM",
+            _ => "a stop request",
+        }
+    }
 }

@@ -60,8 +60,9 @@ pub enum SimError {
         /// What is wrong, with the line.
         detail: String,
     },
-    /// Reading or writing a file failed.
-    #[error("{action} {path}: {source}")]
+    /// Reading or writing a file failed. The OS's reason is the error's source, so a report
+    /// of the whole chain (`{:#}`, or [`SimError::chain`]) says it once.
+    #[error("{action} {path}")]
     Io {
         /// "cannot write", "cannot read".
         action: &'static str,
@@ -95,6 +96,19 @@ pub enum SimError {
 pub type Result<T, E = SimError> = std::result::Result<T, E>;
 
 impl SimError {
+    /// The error and every cause under it, joined by ": ", for texts that outlive the error
+    /// (metrics.json's `ended`).
+    pub fn chain(&self) -> String {
+        let mut text = self.to_string();
+        let mut cause = std::error::Error::source(self);
+        while let Some(c) = cause {
+            text.push_str(": ");
+            text.push_str(&c.to_string());
+            cause = c.source();
+        }
+        text
+    }
+
     /// Wraps an I/O error with the file it concerns.
     pub fn io(action: &'static str, path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         SimError::Io {

@@ -245,9 +245,12 @@ struct EvalArgs {
     seed: u64,
     #[command(flatten)]
     view: ViewArgs,
-    /// Also write the scores to this JSON file.
+    /// Also write the scores to this JSON file (new, unless --overwrite).
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Replace --out if it exists (never the map itself).
+    #[arg(long)]
+    overwrite: bool,
 }
 
 #[derive(clap::Args)]
@@ -322,7 +325,8 @@ fn main() -> std::process::ExitCode {
         .with_writer(std::io::stderr)
         .init();
     match run(cli.command) {
-        Ok(()) => std::process::ExitCode::SUCCESS,
+        Ok(Some(code)) => std::process::ExitCode::from(code),
+        Ok(None) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             std::process::ExitCode::FAILURE
@@ -330,13 +334,15 @@ fn main() -> std::process::ExitCode {
     }
 }
 
-fn run(command: Command) -> Result<()> {
+/// Runs a command; `Some(code)` when it was stopped by a signal and must exit with `code`.
+fn run(command: Command) -> Result<Option<u8>> {
+    let done = |r: Result<()>| r.map(|()| None);
     match command {
-        Command::Record(args) => run_record(args),
+        Command::Record(args) => done(run_record(args)),
         Command::Run(args) => run_run(args),
-        Command::Eval(args) => run_eval(args),
-        Command::Render(args) => run_render(args),
-        Command::World(command) => run_world(command),
+        Command::Eval(args) => done(run_eval(args)),
+        Command::Render(args) => done(run_render(args)),
+        Command::World(command) => done(run_world(command)),
         Command::Bench {
             what,
             world,
@@ -344,7 +350,7 @@ fn run(command: Command) -> Result<()> {
             iterations,
             gaussians,
             engine,
-        } => match what {
+        } => done(match what {
             BenchTarget::Render => {
                 for rasteriser in distinct_engines(&engine)? {
                     let name = rasteriser.describe();
@@ -460,7 +466,7 @@ fn run(command: Command) -> Result<()> {
                 }
                 Ok(())
             }
-        },
+        }),
     }
 }
 
@@ -552,7 +558,7 @@ fn print_map_bench(
     );
 }
 
-fn run_run(args: RunArgs) -> Result<()> {
+fn run_run(args: RunArgs) -> Result<Option<u8>> {
     use splatloop::episode::{run_episode, Latency, RunConfig};
     let latency = match args.latency.as_str() {
         "wall" => Latency::Wall,
@@ -577,25 +583,42 @@ fn run_run(args: RunArgs) -> Result<()> {
         spawn: args.spawn,
         engine: args.view.engine.parse().map_err(anyhow::Error::msg)?,
         overwrite: args.overwrite,
+        stop: splatloop::episode::StopRequest::default(),
         out: args.out,
     };
-    let bar = progress_bar(
+    // Ctrl-C or a cluster's SIGTERM stops the episode at its next tick; it is still written.
+    for (signal, code) in [
+        (
+            signal_hook::consts::SIGINT,
+            splatloop::episode::StopRequest::SIGINT,
+        ),
+        (
+            signal_hook::consts::SIGTERM,
+            splatloop::episode::StopRequest::SIGTERM,
+        ),
+    ] {
+        signal_hook::flag::register_usize(signal, config.stop.flag(), code)
+            .context("cannot install the signal handlers")?;
+    }
+    let mut bar = Progress::new(
         (config.budget * 1000.0).round() as u64,
         "{spinner} exploring [{bar:30}] {msg} ({elapsed} wall, eta {eta})",
+        "exploring",
     );
     let budget = config.budget;
     let metrics = run_episode(&config, &mut |p| {
-        bar.set_position((p.time * 1000.0) as u64);
-        let coverage = p
-            .coverage
-            .map_or(String::new(), |c| format!(", coverage {:.0}%", 100.0 * c));
-        bar.set_message(format!(
-            "{:.0}/{budget:.0} sim s, {} Gaussians{coverage}",
-            p.time, p.gaussians
-        ));
+        bar.update((p.time * 1000.0) as u64, || {
+            let coverage = p
+                .coverage
+                .map_or(String::new(), |c| format!(", coverage {:.0}%", 100.0 * c));
+            format!(
+                "{:.0}/{budget:.0} sim s, {} Gaussians{coverage}",
+                p.time, p.gaussians
+            )
+        });
     })
     .with_context(|| format!("exploring {} failed", config.world.display()))?;
-    bar.finish_and_clear();
+    bar.finish();
     println!(
         "explored {:.0} sim s in {:.1} wall s (real-time factor {:.2}) with {}: {} Gaussians, {:.1} m driven, {} collision steps, {} recoveries; wrote {}",
         metrics.simulated_seconds,
@@ -612,10 +635,16 @@ fn run_run(args: RunArgs) -> Result<()> {
     if metrics.ended != "budget" {
         println!("ended: {}", metrics.ended);
     }
-    Ok(())
+    Ok(config
+        .stop
+        .requested()
+        .map(|code| u8::try_from(code).unwrap_or(1)))
 }
 
 fn run_eval(args: EvalArgs) -> Result<()> {
+    if let Some(out) = &args.out {
+        splatloop::dataset::refuse_overwrite(out, args.overwrite, &[&args.map, &args.world])?;
+    }
     let sensor = SensorConfig {
         width: args.view.width,
         height: args.view.height,
@@ -656,16 +685,17 @@ fn run_render(args: RenderArgs) -> Result<()> {
         engine: args.engine.parse().map_err(anyhow::Error::msg)?,
         overwrite: args.overwrite,
     };
-    let bar = progress_bar(
+    let mut bar = Progress::new(
         0,
         "{spinner} rendering [{bar:30}] {pos}/{len} views ({eta})",
+        "rendering",
     );
     let frames = splatloop::novel_view::render_map(&config, &mut |done, total| {
         bar.set_length(total as u64);
-        bar.set_position(done as u64);
+        bar.update(done as u64, || format!("{done}/{total} views"));
     })
     .with_context(|| format!("rendering {} failed", config.map.display()))?;
-    bar.finish_and_clear();
+    bar.finish();
     println!(
         "rendered {frames} views of {} into {}",
         config.map.display(),
@@ -896,14 +926,74 @@ fn print_evaluation(e: &splatloop::evaluate::Evaluation) {
     );
 }
 
-/// A progress bar of `length` steps drawn with `template` (indicatif's default style if the
-/// template does not parse).
-fn progress_bar(length: u64, template: &str) -> ProgressBar {
-    let bar = ProgressBar::new(length);
-    bar.set_style(
-        ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar
+/// Progress for a person: an indicatif bar on a terminal; without one (CI logs, cluster
+/// jobs), where the bar would draw nothing, a plain line on stderr every tenth of the work or
+/// every 30 s.
+struct Progress {
+    bar: ProgressBar,
+    what: &'static str,
+    plain: bool,
+    started: std::time::Instant,
+    last_line: std::time::Instant,
+    last_tenth: u64,
+}
+
+impl Progress {
+    /// A bar of `length` steps drawn with `template` (indicatif's default style if the
+    /// template does not parse); `what` names the work in plain lines.
+    fn new(length: u64, template: &str, what: &'static str) -> Self {
+        use std::io::IsTerminal;
+        let bar = ProgressBar::new(length);
+        bar.set_style(
+            ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        let now = std::time::Instant::now();
+        Progress {
+            bar,
+            what,
+            plain: !std::io::stderr().is_terminal(),
+            started: now,
+            last_line: now,
+            last_tenth: 0,
+        }
+    }
+
+    fn set_length(&self, length: u64) {
+        self.bar.set_length(length);
+    }
+
+    /// Moves to `position` with `message` (built only when it is shown).
+    fn update(&mut self, position: u64, message: impl FnOnce() -> String) {
+        self.bar.set_position(position);
+        if !self.plain {
+            self.bar.set_message(message());
+            return;
+        }
+        let length = self.bar.length().unwrap_or(0).max(1);
+        let tenth = (10 * position / length).min(10);
+        if tenth > self.last_tenth || self.last_line.elapsed().as_secs_f64() >= 30.0 {
+            self.last_tenth = tenth;
+            self.last_line = std::time::Instant::now();
+            eprintln!(
+                "{}: {} ({}%, {:.0} s wall)",
+                self.what,
+                message(),
+                100 * position.min(length) / length,
+                self.started.elapsed().as_secs_f64()
+            );
+        }
+    }
+
+    fn finish(&self) {
+        self.bar.finish_and_clear();
+        if self.plain {
+            eprintln!(
+                "{}: done (100%, {:.0} s wall)",
+                self.what,
+                self.started.elapsed().as_secs_f64()
+            );
+        }
+    }
 }
 
 fn run_record(args: RecordArgs) -> Result<()> {
@@ -924,17 +1014,17 @@ fn run_record(args: RecordArgs) -> Result<()> {
         overwrite: args.overwrite,
         out: args.out,
     };
-    let bar = progress_bar(
+    let mut bar = Progress::new(
         (config.duration * 1000.0).round() as u64,
         "{spinner} recording [{bar:30}] {msg} sim s ({elapsed} wall, eta {eta})",
+        "recording",
     );
     let total = config.duration;
     let summary = record(&config, &mut |t| {
-        bar.set_position((t * 1000.0) as u64);
-        bar.set_message(format!("{t:.1}/{total:.0}"));
+        bar.update((t * 1000.0) as u64, || format!("{t:.1}/{total:.0} sim s"));
     })
     .with_context(|| format!("recording {} failed", config.world.display()))?;
-    bar.finish_and_clear();
+    bar.finish();
     println!(
         "wrote {} frames to {} (robot ended at x = {:.2} m, y = {:.2} m, theta = {:.2} rad; {} collision steps)",
         summary.frames,

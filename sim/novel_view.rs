@@ -54,6 +54,14 @@ fn read_map(path: &Path) -> Result<autonomy::map::GaussianMap> {
 /// Renders the map at every pose; returns the frames written. `on_frame(done, total)` reports
 /// progress.
 pub fn render_map(config: &RenderConfig, on_frame: &mut dyn FnMut(usize, usize)) -> Result<usize> {
+    // The episode folder's own writer checks the rest; an output that holds an input never.
+    if config.out.exists() {
+        crate::dataset::refuse_overwrite(
+            &config.out,
+            true,
+            &[&config.map, &config.poses, &config.camera],
+        )?;
+    }
     let map = read_map(&config.map)?;
     let camera_file = CameraFile::read(&config.camera)?;
     let intrinsics = camera_file.intrinsics();

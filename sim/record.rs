@@ -6,6 +6,7 @@ use crate::dataset::DatasetWriter;
 use crate::egl::EglContext;
 use crate::error::{Result, SimError};
 use crate::robot::Pose2;
+use crate::spawn::{place_robot, Spawn};
 use crate::world::World;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -109,9 +110,20 @@ pub fn record(config: &RecordConfig, on_progress: &mut dyn FnMut(f64)) -> Result
     config.validate()?;
     let mut world = World::load(&config.world, &config.sensor)?;
     let schedule = ControlSchedule::from_arg(&config.controls, &world.robot().limits)?;
-    if let Some(start) = config.start {
-        world.set_start(start);
+    let physics_rate = 1.0 / world.model().timestep();
+    if config.frame_rate > physics_rate {
+        return Err(SimError::InvalidArgument {
+            what: "frame rate",
+            detail: format!(
+                "{} frames/s is faster than the physics ({physics_rate:.0} steps/s), which a frame is taken at; give at most {physics_rate:.0}",
+                config.frame_rate
+            ),
+        });
     }
+    // A start inside an obstacle would throw the robot; one without a floor would drop it.
+    let spawn = config.start.map_or(Spawn::Site, Spawn::Pose);
+    place_robot(&mut world, spawn, config.seed)?;
+    crate::world_check::require_floor(&world)?;
     let gl = EglContext::new()?;
     let mut camera = world.make_camera(&config.sensor, config.seed, &gl)?;
     let mut writer = DatasetWriter::create(&config.out, config.sensor.max_range, config.overwrite)?;

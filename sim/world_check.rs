@@ -144,20 +144,7 @@ pub fn check_world(world: &World) -> Result<(WorldReport, FloorPlan)> {
             })
             .map(|c| plan.centre(c)),
     );
-    let down = Vector3::new(0.0, 0.0, -1.0);
-    // Three rays a few millimetres apart per probe: one ray can slip down a mesh's edge.
-    let floor_at = |x: f64, y: f64| {
-        [[0.0, 0.0], [0.0031, 0.0017], [-0.0023, 0.0029]]
-            .iter()
-            .any(|d| {
-                let origin = Point3::new(x + d[0], y + d[1], 0.05);
-                let hit = world
-                    .data()
-                    .ray(&origin, &down, FLOOR_GROUPS, Some(world.robot().body));
-                hit.is_some_and(|h| h.distance <= 0.1)
-            })
-    };
-    if let Some([x, y]) = probes.into_iter().find(|&[x, y]| !floor_at(x, y)) {
+    if let Some([x, y]) = probes.into_iter().find(|&[x, y]| !floor_at(world, x, y)) {
         problems.push(format!(
             "no floor under ({x:.2}, {y:.2}): the robot would fall (add a ground plane or a floor box with its top at z = 0)"
         ));
@@ -221,6 +208,38 @@ pub fn check_world(world: &World) -> Result<(WorldReport, FloorPlan)> {
         problems,
     };
     Ok((report, plan))
+}
+
+/// Whether there is a floor under (x, y): a surface within 5 cm of z = 0 below a point just
+/// above it. Three rays a few millimetres apart: one ray can slip down a mesh's edge.
+pub fn floor_at(world: &World, x: f64, y: f64) -> bool {
+    let down = Vector3::new(0.0, 0.0, -1.0);
+    [[0.0, 0.0], [0.0031, 0.0017], [-0.0023, 0.0029]]
+        .iter()
+        .any(|d| {
+            let origin = Point3::new(x + d[0], y + d[1], 0.05);
+            let hit = world
+                .data()
+                .ray(&origin, &down, FLOOR_GROUPS, Some(world.robot().body));
+            hit.is_some_and(|h| h.distance <= 0.1)
+        })
+}
+
+/// An error unless the robot's start has a floor under it (a world without one drops it).
+pub fn require_floor(world: &World) -> crate::error::Result<()> {
+    let start = world.start();
+    if floor_at(world, start.x, start.y) {
+        return Ok(());
+    }
+    Err(crate::error::SimError::InvalidArgument {
+        what: "world",
+        detail: format!(
+            "no floor under the robot's start ({:.2}, {:.2}) in {}: it would fall; add a ground plane (<geom type=\"plane\" size=\"0 0 1\"/>) or a floor with its top at z = 0",
+            start.x,
+            start.y,
+            world.model().path().display()
+        ),
+    })
 }
 
 /// Mean centre of a group of cells.

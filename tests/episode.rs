@@ -27,6 +27,7 @@ fn config(world: &str, planner: PlannerKind, budget: f64, out: std::path::PathBu
         spawn: Spawn::Site,
         engine: EngineChoice::Cpu,
         overwrite: false,
+        stop: Default::default(),
         out,
     }
 }

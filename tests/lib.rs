@@ -5,6 +5,7 @@ mod dataset;
 mod drive;
 mod egl;
 mod episode;
+mod nothing_lost;
 mod scene;
 mod sensor;
 mod support;

@@ -201,6 +201,7 @@ pub fn read(path: &Path) -> Result<GaussianMap, PlyError> {
     let stride = properties.len() * 4;
     let mut map = GaussianMap::new(Gaussians::default(), Vec::with_capacity(count));
     let mut record = vec![0u8; stride];
+    let mut anisotropic = 0usize;
     for i in 0..count {
         if let Err(e) = input.read_exact(&mut record) {
             return if e.kind() == std::io::ErrorKind::UnexpectedEof {
@@ -219,6 +220,7 @@ pub fn read(path: &Path) -> Result<GaussianMap, PlyError> {
         };
         let v: Vec<f32> = columns.iter().map(|c| value(*c)).collect();
         let log_radius = if scales.len() == 3 && scales.iter().any(|c| value(*c) != v[7]) {
+            anisotropic += 1;
             scales.iter().map(|c| value(*c)).sum::<f32>() / 3.0
         } else {
             v[7]
@@ -235,6 +237,23 @@ pub fn read(path: &Path) -> Result<GaussianMap, PlyError> {
                 index: i,
             });
         }
+    }
+    // This map holds isotropic Gaussians with one colour each: say what was changed.
+    if anisotropic > 0 {
+        tracing::warn!(
+            "{}: {anisotropic} of {count} Gaussians were anisotropic: made isotropic by the geometric mean of their scales, rotations ignored",
+            path.display()
+        );
+    }
+    let harmonics = properties
+        .iter()
+        .filter(|p| p.starts_with("f_rest_"))
+        .count();
+    if harmonics > 0 {
+        tracing::warn!(
+            "{}: {harmonics} higher spherical-harmonic coefficients per Gaussian (f_rest_*) dropped: colours are the degree-0 term",
+            path.display()
+        );
     }
     map.adopt_new_gaussians();
     Ok(map)

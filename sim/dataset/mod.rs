@@ -10,8 +10,10 @@ pub use reader::{read_trajectory, Dataset, DatasetFrame};
 pub(crate) use writer::write_json;
 pub use writer::DatasetWriter;
 
+use crate::error::{Result, SimError};
 use autonomy::camera::Intrinsics;
 use serde::{Deserialize, Serialize};
+use std::path::Path;
 
 /// Depth PNG units: 5000 per metre (TUM), so 1 unit = 0.2 mm and the range tops out at 13.1 m.
 pub const DEPTH_SCALE: f64 = 5000.0;
@@ -60,10 +62,39 @@ impl CameraFile {
     pub fn read(path: &std::path::Path) -> crate::error::Result<Self> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| crate::error::SimError::io("cannot read", path, e))?;
-        serde_json::from_str(&text).map_err(|e| crate::error::SimError::BadDataset {
+        let camera: CameraFile =
+            serde_json::from_str(&text).map_err(|e| crate::error::SimError::BadDataset {
+                path: path.to_owned(),
+                detail: format!("{e}; expected the camera.json of a splatloop dataset"),
+            })?;
+        // Sizes from a file are checked as the command line's are: a damaged file must not
+        // make the renderer allocate a 280 GB image.
+        let bad = |detail: String| crate::error::SimError::BadDataset {
             path: path.to_owned(),
-            detail: format!("{e}; expected the camera.json of a splatloop dataset"),
-        })
+            detail,
+        };
+        for (side, value) in [("W", camera.width), ("H", camera.height)] {
+            if !crate::camera::RESOLUTION_RANGE.contains(&value) {
+                return Err(bad(format!(
+                    "{side} = {value} is outside {}..={} pixels",
+                    crate::camera::RESOLUTION_RANGE.start(),
+                    crate::camera::RESOLUTION_RANGE.end()
+                )));
+            }
+        }
+        let k = camera.k;
+        if !(k.iter().flatten().all(|v| v.is_finite()) && k[0][0] > 0.0 && k[1][1] > 0.0) {
+            return Err(bad(format!(
+                "K = {k:?} needs finite entries and positive focal lengths"
+            )));
+        }
+        if !(camera.max_range.is_finite() && camera.max_range > 0.0) {
+            return Err(bad(format!(
+                "max_range = {} must be a positive number of metres",
+                camera.max_range
+            )));
+        }
+        Ok(camera)
     }
 
     /// The intrinsics back.
@@ -77,4 +108,33 @@ impl CameraFile {
             height: self.height,
         }
     }
+}
+
+/// Refuses to write `out` when it exists and `overwrite` is not set, and always when it is one
+/// of the command's `inputs` or holds one (a folder): no command writes over what it reads.
+pub fn refuse_overwrite(out: &Path, overwrite: bool, inputs: &[&Path]) -> Result<()> {
+    let resolved = |p: &Path| std::fs::canonicalize(p).ok();
+    if let Some(target) = resolved(out) {
+        for input in inputs {
+            if let Some(input) = resolved(input) {
+                if input.starts_with(&target) {
+                    return Err(SimError::InvalidArgument {
+                        what: "output",
+                        detail: format!(
+                            "{} would overwrite this command's own input {}; choose another output",
+                            out.display(),
+                            input.display()
+                        ),
+                    });
+                }
+            }
+        }
+        if !overwrite {
+            return Err(SimError::InvalidArgument {
+                what: "output",
+                detail: format!("{} exists; pass --overwrite to replace it", out.display()),
+            });
+        }
+    }
+    Ok(())
 }

@@ -39,6 +39,23 @@ impl Dataset {
         let rgb = read_list(&dir.join("rgb.txt"), 1)?;
         let depth = read_list(&dir.join("depth.txt"), 1)?;
         let poses = read_trajectory(&dir.join("groundtruth.txt"))?;
+        let (mut rgb, mut depth, mut poses) = (rgb, depth, poses);
+        // A run killed between two lists' lines leaves the last frame in some lists only:
+        // that torn frame is skipped, anything else is a damaged dataset.
+        let least = rgb.len().min(depth.len()).min(poses.len());
+        let most = rgb.len().max(depth.len()).max(poses.len());
+        if most == least + 1 {
+            tracing::warn!(
+                "{}: the last frame is torn ({} rgb, {} depth, {} pose lines; the run was stopped while writing it): reading the {least} whole frames",
+                dir.display(),
+                rgb.len(),
+                depth.len(),
+                poses.len()
+            );
+            rgb.truncate(least);
+            depth.truncate(least);
+            poses.truncate(least);
+        }
         if rgb.len() != depth.len() || rgb.len() != poses.len() {
             return Err(SimError::BadDataset {
                 path: dir.to_owned(),
@@ -105,7 +122,10 @@ impl Dataset {
 fn read_list(path: &Path, fields: usize) -> Result<Vec<(f64, Vec<String>)>> {
     let text = std::fs::read_to_string(path).map_err(|e| SimError::io("cannot read", path, e))?;
     let mut rows = Vec::new();
+    let count = text.lines().count();
     for (n, line) in text.lines().enumerate() {
+        // A last line without its newline was being written when the run stopped.
+        let torn = n + 1 == count && !text.ends_with('\n');
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
             continue;
@@ -115,11 +135,15 @@ fn read_list(path: &Path, fields: usize) -> Result<Vec<(f64, Vec<String>)>> {
             path: path.to_owned(),
             detail: format!("line {}: expected a timestamp and {fields} fields", n + 1),
         };
-        let time: f64 = parts.next().and_then(|t| t.parse().ok()).ok_or_else(bad)?;
+        let time = parts.next().and_then(|t| t.parse::<f64>().ok());
         let rest: Vec<String> = parts.map(str::to_owned).collect();
-        if rest.len() != fields {
+        let Some(time) = time.filter(|_| rest.len() == fields) else {
+            if torn {
+                tracing::warn!("{}: skipping the torn last line {}", path.display(), n + 1);
+                break;
+            }
             return Err(bad());
-        }
+        };
         rows.push((time, rest));
     }
     Ok(rows)
@@ -138,7 +162,16 @@ pub fn read_trajectory(path: &Path) -> Result<Vec<(f64, Isometry3)>> {
                     path: path.to_owned(),
                     detail: format!("at t = {time}: {e}"),
                 })?;
-            let rotation = UnitQuaternion::from_quaternion(Quaternion::new(v[6], v[3], v[4], v[5]));
+            let q = Quaternion::new(v[6], v[3], v[4], v[5]);
+            if !v.iter().all(|x| x.is_finite()) || q.norm() < 1e-6 {
+                return Err(SimError::BadDataset {
+                    path: path.to_owned(),
+                    detail: format!(
+                        "the pose at t = {time} is not a pose (NaN, infinite, or a zero quaternion): {fields:?}"
+                    ),
+                });
+            }
+            let rotation = UnitQuaternion::from_quaternion(q);
             Ok((
                 time,
                 Isometry3::from_parts(Translation3::from(Vector3::new(v[0], v[1], v[2])), rotation),

@@ -1,5 +1,14 @@
-//! Writes an episode folder frame by frame; the index files are streamed so a crash keeps
-//! every frame written so far.
+//! Writes an episode folder frame by frame, so that nothing is lost:
+//! - the new episode is written into a staging folder beside the target (`.NAME.partial`) and
+//!   takes the target's place only in `finish`, so a run that fails leaves an earlier episode
+//!   as it was;
+//! - every list (rgb.txt, depth.txt, groundtruth.txt, transforms.json's frames) is written and
+//!   flushed after its frame's images, so the counts always agree, and camera.json is written
+//!   with the first frame;
+//! - `--overwrite` replaces only what an earlier splatloop run wrote (the manifest in its
+//!   episode.json) and refuses, naming them, when the folder holds anything else;
+//! - a lock file beside the target (`.NAME.lock`, an OS lock the kernel drops when the process
+//!   dies) refuses a second run into the same folder.
 
 use super::{write_depth_png, write_rgb_png, CameraFile, DEPTH_SCALE};
 use crate::camera::RgbdFrame;
@@ -8,19 +17,32 @@ use autonomy::math::Isometry3;
 use nalgebra::Matrix4;
 use serde::Serialize;
 use std::fs::{self, File};
-use std::io::{BufWriter, Write};
+use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
+
+/// What closes transforms.json after the last frame written so far.
+const TRANSFORMS_TAIL: &str = "\n  ]\n}\n";
 
 /// Streams frames into an episode folder.
 pub struct DatasetWriter {
+    /// The staging folder everything is written into.
     dir: PathBuf,
+    /// The folder the episode is for.
+    target: PathBuf,
+    /// Held for the writer's life; the OS releases it if the process dies.
+    _lock: FolderLock,
     rgb_txt: BufWriter<File>,
     depth_txt: BufWriter<File>,
     groundtruth_txt: BufWriter<File>,
-    transforms: Vec<TransformFrame>,
+    /// transforms.json, valid JSON after every frame; `transforms_end` is where its tail starts.
+    transforms: Option<File>,
+    transforms_end: u64,
     camera: Option<CameraFile>,
     max_range: f64,
     frames: usize,
+    /// Frames after which every write fails (fault injection for the tests of this module's
+    /// promises).
+    fail_after: Option<usize>,
 }
 
 #[derive(Serialize)]
@@ -49,68 +71,205 @@ struct TransformsFile<'a> {
     frames: &'a [TransformFrame],
 }
 
+/// The lock on an output folder: an OS lock on a file beside it, released (and the file
+/// removed) when the writer is dropped, and released by the kernel if the process dies.
+struct FolderLock {
+    file: File,
+    path: PathBuf,
+}
+
+impl Drop for FolderLock {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
+        let _ = self.file.unlock();
+    }
+}
+
+/// Where `target`'s sibling called `.NAME.suffix` is.
+fn sibling(target: &Path, suffix: &str) -> PathBuf {
+    let name = target
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "episode".into());
+    let parent = target
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    parent.join(format!(".{name}.{suffix}"))
+}
+
+/// Every file under `dir`, relative to it, sorted.
+fn files_under(dir: &Path) -> Result<Vec<String>> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in fs::read_dir(&d).map_err(|e| SimError::io("cannot read", &d, e))? {
+            let entry = entry.map_err(|e| SimError::io("cannot read", &d, e))?;
+            let path = entry.path();
+            if path.is_dir() {
+                stack.push(path);
+            } else if let Ok(relative) = path.strip_prefix(dir) {
+                out.push(relative.to_string_lossy().replace('\\', "/"));
+            }
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// Checks that `dir` may be replaced: empty, or holding only what the manifest of its
+/// episode.json lists (and `overwrite` is set).
+fn check_replaceable(dir: &Path, overwrite: bool) -> Result<()> {
+    let present = files_under(dir)?;
+    if present.is_empty() {
+        return Ok(());
+    }
+    let refuse = |detail: String| {
+        Err(SimError::InvalidArgument {
+            what: "output folder",
+            detail,
+        })
+    };
+    if !overwrite {
+        return refuse(format!("{} is not empty; choose a new --out, or pass --overwrite to replace an earlier episode", dir.display()));
+    }
+    let manifest: Option<Vec<String>> = fs::read_to_string(dir.join("episode.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|v| {
+            v.get("files")
+                .and_then(|f| serde_json::from_value(f.clone()).ok())
+        });
+    let Some(manifest) = manifest else {
+        return refuse(format!(
+            "{} holds files but no splatloop manifest (episode.json with a file list), so --overwrite leaves it alone",
+            dir.display()
+        ));
+    };
+    let foreign: Vec<&String> = present.iter().filter(|f| !manifest.contains(f)).collect();
+    if !foreign.is_empty() {
+        let names: Vec<&str> = foreign.iter().take(5).map(|s| s.as_str()).collect();
+        let more = if foreign.len() > 5 {
+            format!(" and {} more", foreign.len() - 5)
+        } else {
+            String::new()
+        };
+        return refuse(format!(
+            "{} holds files splatloop did not write ({}{more}); --overwrite replaces only an episode's own files, so move them first",
+            dir.display(),
+            names.join(", ")
+        ));
+    }
+    Ok(())
+}
+
 impl DatasetWriter {
-    /// Creates the folder layout. A folder that already holds files is refused so nothing is
-    /// lost, unless `overwrite` is set and it is a splatloop dataset (it has episode.json).
+    /// Starts an episode for `dir`: takes the lock, checks that an existing folder may be
+    /// replaced (see the module), and opens the staging folder.
     pub fn create(dir: &Path, max_range: f64, overwrite: bool) -> Result<Self> {
-        if dir.exists() {
-            let occupied = fs::read_dir(dir)
-                .map_err(|e| SimError::io("cannot read", dir, e))?
-                .next()
-                .is_some();
-            let is_dataset = dir.join("episode.json").is_file();
-            if occupied && !(overwrite && is_dataset) {
-                let hint = if overwrite {
-                    "it is not a splatloop dataset (no episode.json), so --overwrite leaves it alone"
-                } else {
-                    "choose a new --out, or pass --overwrite to replace a dataset"
-                };
+        if let Some(parent) = dir.parent().filter(|p| !p.as_os_str().is_empty()) {
+            fs::create_dir_all(parent).map_err(|e| SimError::io("cannot create", parent, e))?;
+        }
+        let lock_path = sibling(dir, "lock");
+        let lock =
+            File::create(&lock_path).map_err(|e| SimError::io("cannot create", &lock_path, e))?;
+        if let Err(e) = lock.try_lock() {
+            return Err(match e {
+                std::fs::TryLockError::WouldBlock => SimError::InvalidArgument {
+                    what: "output folder",
+                    detail: format!("another splatloop run is writing {}; wait for it to end or choose another --out", dir.display()),
+                },
+                std::fs::TryLockError::Error(e) => SimError::io("cannot lock", &lock_path, e),
+            });
+        }
+        // A lock taken on a file another run just removed guards nothing: it must still be
+        // the file at the path.
+        {
+            use std::os::unix::fs::MetadataExt;
+            let held = lock.metadata().map(|m| m.ino()).ok();
+            let at_path = fs::metadata(&lock_path).map(|m| m.ino()).ok();
+            if held.is_none() || held != at_path {
                 return Err(SimError::InvalidArgument {
                     what: "output folder",
-                    detail: format!("{} is not empty; {hint}", dir.display()),
+                    detail: format!(
+                        "another splatloop run was writing {} just now; try again",
+                        dir.display()
+                    ),
                 });
             }
-            if occupied {
-                fs::remove_dir_all(dir).map_err(|e| SimError::io("cannot remove", dir, e))?;
+        }
+        if dir.exists() {
+            if !dir.is_dir() {
+                return Err(SimError::InvalidArgument {
+                    what: "output folder",
+                    detail: format!("{} is a file", dir.display()),
+                });
             }
+            check_replaceable(dir, overwrite)?;
+        }
+        // A staging folder left by a run that was killed: ours to clear, since we hold the lock.
+        let staging = sibling(dir, "partial");
+        if staging.exists() {
+            fs::remove_dir_all(&staging).map_err(|e| SimError::io("cannot remove", &staging, e))?;
         }
         for sub in ["rgb", "depth"] {
-            let path = dir.join(sub);
+            let path = staging.join(sub);
             fs::create_dir_all(&path).map_err(|e| SimError::io("cannot create", &path, e))?;
         }
-        // Marks the folder as ours from the start, so a run that is interrupted can be
-        // replaced with --overwrite; `finish` writes the real record over it.
-        write_json(
-            &dir.join("episode.json"),
-            &serde_json::json!({ "status": "incomplete: the run that wrote this did not finish" }),
-        )?;
         let open = |name: &str, header: &str| -> Result<BufWriter<File>> {
-            let path = dir.join(name);
+            let path = staging.join(name);
             let mut file = BufWriter::new(
                 File::create(&path).map_err(|e| SimError::io("cannot create", &path, e))?,
             );
             file.write_all(header.as_bytes())
                 .map_err(|e| SimError::io("cannot write", &path, e))?;
+            file.flush()
+                .map_err(|e| SimError::io("cannot write", &path, e))?;
             Ok(file)
         };
         Ok(DatasetWriter {
-            dir: dir.to_owned(),
             rgb_txt: open("rgb.txt", "# color images\n# file: splatloop\n# timestamp filename\n")?,
             depth_txt: open("depth.txt", "# depth maps\n# file: splatloop\n# timestamp filename\n")?,
             groundtruth_txt: open(
                 "groundtruth.txt",
                 "# ground truth trajectory (camera-to-world, OpenCV optical frame)\n# file: splatloop\n# timestamp tx ty tz qx qy qz qw\n",
             )?,
-            transforms: Vec::new(),
+            dir: staging,
+            target: dir.to_owned(),
+            _lock: FolderLock { file: lock, path: lock_path },
+            transforms: None,
+            transforms_end: 0,
             camera: None,
             max_range,
             frames: 0,
+            fail_after: None,
         })
     }
 
-    /// The folder being written.
+    /// Makes every write fail once `frames` frames are written, as a full disk would.
+    pub fn fail_writes_after(&mut self, frames: usize) {
+        self.fail_after = Some(frames);
+    }
+
+    fn check_fault(&self, path: &Path) -> Result<()> {
+        match self.fail_after {
+            Some(n) if self.frames >= n => Err(SimError::io(
+                "cannot write",
+                path,
+                std::io::Error::other("no space left on device (injected)"),
+            )),
+            _ => Ok(()),
+        }
+    }
+
+    /// The folder files are written into now (the staging folder until `finish`).
     pub fn dir(&self) -> &Path {
         &self.dir
+    }
+
+    /// The folder the episode ends up in.
+    pub fn target(&self) -> &Path {
+        &self.target
     }
 
     /// Frames written so far.
@@ -118,11 +277,15 @@ impl DatasetWriter {
         self.frames
     }
 
-    /// Writes one frame's PNGs and index lines.
+    /// Writes one frame's PNGs, then its line in every list, flushed.
     pub fn write_frame(&mut self, frame: &RgbdFrame) -> Result<()> {
         let k = frame.camera.intrinsics;
         match &self.camera {
-            None => self.camera = Some(CameraFile::new(&k, self.max_range)),
+            None => {
+                let camera = CameraFile::new(&k, self.max_range);
+                write_json(&self.dir.join("camera.json"), &camera)?;
+                self.camera = Some(camera);
+            }
             Some(c) if c.intrinsics() != k => {
                 return Err(SimError::InvalidArgument {
                     what: "frame",
@@ -134,6 +297,7 @@ impl DatasetWriter {
         let name = format!("{:06}.png", self.frames);
         let rgb_rel = format!("rgb/{name}");
         let depth_rel = format!("depth/{name}");
+        self.check_fault(&self.dir.join(&rgb_rel))?;
         write_rgb_png(&self.dir.join(&rgb_rel), k.width, k.height, &frame.rgb)?;
         write_depth_png(&self.dir.join(&depth_rel), k.width, k.height, &frame.depth)?;
         let stamp = format!("{:.6}", frame.time);
@@ -157,54 +321,112 @@ impl DatasetWriter {
         ];
         for (file, line, name) in lines {
             file.write_all(line.as_bytes())
+                .and_then(|()| file.flush())
                 .map_err(|e| SimError::io("cannot write", self.dir.join(name), e))?;
         }
-        self.transforms.push(TransformFrame {
+        let entry = TransformFrame {
             file_path: rgb_rel,
             depth_file_path: depth_rel,
             transform_matrix: opengl_matrix(pose),
             timestamp: frame.time,
-        });
+        };
+        self.append_transform(&entry)?;
         self.frames += 1;
         Ok(())
     }
 
-    /// Flushes the index files and writes camera.json, transforms.json and `episode.json`
-    /// (whatever the caller wants recorded: config, seed, versions).
-    pub fn finish(mut self, episode: &impl Serialize) -> Result<PathBuf> {
-        for (file, name) in [
-            (&mut self.rgb_txt, "rgb.txt"),
-            (&mut self.depth_txt, "depth.txt"),
-            (&mut self.groundtruth_txt, "groundtruth.txt"),
-        ] {
-            file.flush()
-                .map_err(|e| SimError::io("cannot write", self.dir.join(name), e))?;
+    /// Appends a frame to transforms.json in place: the file is rewritten from where its tail
+    /// began, so it is whole JSON after every frame.
+    fn append_transform(&mut self, entry: &TransformFrame) -> Result<()> {
+        let path = self.dir.join("transforms.json");
+        let io = |e: std::io::Error| SimError::io("cannot write", &path, e);
+        let mut text = String::new();
+        if self.transforms.is_none() {
+            let k = self
+                .camera
+                .as_ref()
+                .map(CameraFile::intrinsics)
+                .ok_or_else(|| io(std::io::Error::other("no camera yet")))?;
+            let header = TransformsFile {
+                camera_model: "OPENCV",
+                fl_x: k.fx,
+                fl_y: k.fy,
+                // nerfstudio puts pixel centres at +0.5.
+                cx: k.cx + 0.5,
+                cy: k.cy + 0.5,
+                w: k.width,
+                h: k.height,
+                k1: 0.0,
+                k2: 0.0,
+                p1: 0.0,
+                p2: 0.0,
+                depth_unit_scale_factor: 1.0 / DEPTH_SCALE,
+                frames: &[],
+            };
+            let json =
+                serde_json::to_string_pretty(&header).map_err(|e| io(std::io::Error::other(e)))?;
+            // `"frames": []` closes the pretty text: reopen the list.
+            let open = json
+                .strip_suffix("[]\n}")
+                .or_else(|| json.strip_suffix("[]}"))
+                .ok_or_else(|| io(std::io::Error::other("unexpected JSON layout")))?;
+            text.push_str(open);
+            text.push_str("[\n");
+            self.transforms = Some(File::create(&path).map_err(io)?);
+            self.transforms_end = 0;
+        } else {
+            text.push_str(",\n");
         }
-        if let Some(camera) = &self.camera {
-            write_json(&self.dir.join("camera.json"), camera)?;
-            let k = camera.intrinsics();
-            write_json(
-                &self.dir.join("transforms.json"),
-                &TransformsFile {
-                    camera_model: "OPENCV",
-                    fl_x: k.fx,
-                    fl_y: k.fy,
-                    // nerfstudio puts pixel centres at +0.5.
-                    cx: k.cx + 0.5,
-                    cy: k.cy + 0.5,
-                    w: k.width,
-                    h: k.height,
-                    k1: 0.0,
-                    k2: 0.0,
-                    p1: 0.0,
-                    p2: 0.0,
-                    depth_unit_scale_factor: 1.0 / DEPTH_SCALE,
-                    frames: &self.transforms,
-                },
-            )?;
+        let item = serde_json::to_string_pretty(entry).map_err(|e| io(std::io::Error::other(e)))?;
+        for line in item.lines() {
+            text.push_str("    ");
+            text.push_str(line);
+            text.push('\n');
         }
-        write_json(&self.dir.join("episode.json"), episode)?;
-        Ok(self.dir)
+        text.pop();
+        let file = self
+            .transforms
+            .as_mut()
+            .ok_or_else(|| io(std::io::Error::other("not open")))?;
+        file.seek(SeekFrom::Start(self.transforms_end))
+            .map_err(io)?;
+        file.write_all(text.as_bytes()).map_err(io)?;
+        self.transforms_end += text.len() as u64;
+        file.write_all(TRANSFORMS_TAIL.as_bytes()).map_err(io)?;
+        file.flush().map_err(io)
+    }
+
+    /// Writes `episode.json` (whatever the caller records: config, seed, versions, plus the
+    /// manifest of every file of the episode) and puts the episode in its folder: the earlier
+    /// one there is moved aside, the new one renamed into place, the old one deleted.
+    pub fn finish(self, episode: &impl Serialize) -> Result<PathBuf> {
+        let episode_path = self.dir.join("episode.json");
+        self.check_fault(&episode_path)?;
+        let mut record = serde_json::to_value(episode).map_err(|e| {
+            SimError::io("cannot serialise", &episode_path, std::io::Error::other(e))
+        })?;
+        let mut files = files_under(&self.dir)?;
+        files.push("episode.json".into());
+        files.sort();
+        files.dedup();
+        if let serde_json::Value::Object(map) = &mut record {
+            map.insert("files".into(), serde_json::json!(files));
+        }
+        write_json(&episode_path, &record)?;
+        let aside = sibling(&self.target, "old");
+        if aside.exists() {
+            fs::remove_dir_all(&aside).map_err(|e| SimError::io("cannot remove", &aside, e))?;
+        }
+        if self.target.exists() {
+            fs::rename(&self.target, &aside)
+                .map_err(|e| SimError::io("cannot move aside", &self.target, e))?;
+        }
+        fs::rename(&self.dir, &self.target)
+            .map_err(|e| SimError::io("cannot write", &self.target, e))?;
+        if aside.exists() {
+            fs::remove_dir_all(&aside).map_err(|e| SimError::io("cannot remove", &aside, e))?;
+        }
+        Ok(self.target.clone())
     }
 }
 

@@ -87,7 +87,8 @@ impl Rasteriser {
                 Rasteriser::Cpu
             }
             Err(e) => {
-                tracing::info!("splat engine: cpu ({e})");
+                // The normal case on a machine without a GPU: nothing a person must act on.
+                tracing::debug!("splat engine: cpu ({e})");
                 Rasteriser::Cpu
             }
         }

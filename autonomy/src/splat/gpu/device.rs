@@ -64,11 +64,23 @@ fn pick_adapter(
     instance: &wgpu::Instance,
     policy: AdapterPolicy,
 ) -> Result<wgpu::Adapter, GpuError> {
-    if std::env::var_os("WGPU_ADAPTER_NAME").is_some() {
-        return pollster::block_on(wgpu::util::initialize_adapter_from_env(instance, None))
-            .map_err(|e| GpuError::NoAdapter(format!("WGPU_ADAPTER_NAME matched none: {e}")));
-    }
     let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+    // WGPU_ADAPTER_NAME: matched here (a case-insensitive substring, as wgpu matches it) so
+    // that a name matching nothing is a warning and the usual choice, never a panic.
+    if let Some(wanted) = std::env::var_os("WGPU_ADAPTER_NAME") {
+        let wanted = wanted.to_string_lossy().to_lowercase();
+        let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+        match adapters
+            .iter()
+            .position(|a| a.get_info().name.to_lowercase().contains(&wanted))
+        {
+            Some(k) => return Ok(adapters[k].clone()),
+            None => tracing::warn!(
+                "WGPU_ADAPTER_NAME={wanted:?} matches none of the adapters ({}); choosing as if it were unset",
+                names.join(", ")
+            ),
+        }
+    }
     let rank = |a: &wgpu::Adapter| match a.get_info().device_type {
         wgpu::DeviceType::DiscreteGpu => 0,
         wgpu::DeviceType::IntegratedGpu => 1,
