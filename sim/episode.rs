@@ -93,6 +93,9 @@ pub struct RunConfig {
     /// Set by a signal handler to stop at the next tick (the episode is still written).
     #[serde(skip)]
     pub stop: StopRequest,
+    /// Makes every write fail after this many frames, as a full disk would (tests).
+    #[serde(skip)]
+    pub fail_writes_after: Option<usize>,
     /// Episode folder.
     #[serde(skip)]
     pub out: PathBuf,
@@ -375,6 +378,9 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     let gl = EglContext::new()?;
     let mut camera = world.make_camera(&config.sensor, config.seed, &gl)?;
     let mut writer = DatasetWriter::create(&config.out, config.sensor.max_range, config.overwrite)?;
+    if let Some(frames) = config.fail_writes_after {
+        writer.fail_writes_after(frames);
+    }
     let engine = Rasteriser::select(config.engine);
     let engine_name = engine.describe();
     let mut mapper = Mapper::new(

@@ -584,6 +584,7 @@ fn run_run(args: RunArgs) -> Result<Option<u8>> {
         engine: args.view.engine.parse().map_err(anyhow::Error::msg)?,
         overwrite: args.overwrite,
         stop: splatloop::episode::StopRequest::default(),
+        fail_writes_after: None,
         out: args.out,
     };
     // Ctrl-C or a cluster's SIGTERM stops the episode at its next tick; it is still written.

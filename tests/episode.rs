@@ -28,6 +28,7 @@ fn config(world: &str, planner: PlannerKind, budget: f64, out: std::path::PathBu
         engine: EngineChoice::Cpu,
         overwrite: false,
         stop: Default::default(),
+        fail_writes_after: None,
         out,
     }
 }

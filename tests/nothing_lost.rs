@@ -211,6 +211,47 @@ fn a_run_that_fails_while_writing_leaves_the_earlier_episode_intact() {
 }
 
 #[test]
+fn an_error_mid_episode_is_written_into_ended_and_the_earlier_episode_kept() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("episode");
+    record(&record_config(&out, 0.4, false), &mut |_| {}).expect("an earlier episode");
+    let before = snapshot(&out);
+    let config = RunConfig {
+        world: repo_path("worlds/room.xml"),
+        budget: 5.0,
+        seed: 0,
+        camera_rate: 5.0,
+        think_period: 1.0,
+        iterations: 2,
+        latency: Latency::None,
+        planner: PlannerKind::RtGuide,
+        sensor: SensorConfig::default(),
+        test_views: 0,
+        spawn: Spawn::Site,
+        engine: autonomy::splat::EngineChoice::Cpu,
+        overwrite: true,
+        stop: Default::default(),
+        fail_writes_after: Some(6),
+        out: out.clone(),
+    };
+    let error = run_episode(&config, &mut |_| {}).expect_err("the disk fills up");
+    assert!(error.chain().contains("no space left"), "{}", error.chain());
+    assert_eq!(snapshot(&out), before, "the earlier episode is untouched");
+    // What was written of the failed run says why it ended.
+    let staging = dir.path().join(".episode.partial");
+    let metrics: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(staging.join("metrics.json")).expect("metrics"),
+    )
+    .expect("json");
+    let ended = metrics["ended"].as_str().expect("ended");
+    assert!(
+        ended.starts_with("error at t = 1.2 s") && ended.contains("no space left"),
+        "{ended}"
+    );
+    assert!(staging.join("map.ply").is_file());
+}
+
+#[test]
 fn one_run_at_a_time_per_folder_and_a_killed_run_leaves_no_lock() {
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().join("episode");
@@ -390,6 +431,7 @@ fn the_silent_cases_are_errors_or_warnings() {
         engine: autonomy::splat::EngineChoice::Cpu,
         overwrite: false,
         stop: Default::default(),
+        fail_writes_after: None,
         out: dir.path().join("c"),
     };
     let error = run_episode(&run, &mut |_| {}).expect_err("refused");
@@ -490,6 +532,51 @@ fn progress_lines_appear_when_stderr_is_not_a_terminal() {
         lines.last().is_some_and(|l| l.contains("done (100%")),
         "{lines:?}"
     );
-    // The CPU engine on a machine without a GPU is not news.
+    // A run says how far it is too; its CPU engine on a machine without a GPU is not news.
+    let out = binary()
+        .args([
+            "run",
+            "--budget",
+            "2",
+            "--latency",
+            "none",
+            "--test-views",
+            "0",
+            "--out",
+        ])
+        .arg(dir.path().join("run"))
+        .output()
+        .expect("runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.lines().any(|l| l.starts_with("exploring: ")),
+        "{stderr}"
+    );
     assert!(!stderr.contains("no usable GPU adapter"), "{stderr}");
+}
+
+#[test]
+fn an_os_error_is_reported_once() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let map = dir.path().join("map.ply");
+    tiny_map(&map);
+    let out = binary()
+        .args(["render", "--engine", "cpu", "--map"])
+        .arg(&map)
+        .arg("--poses")
+        .arg(dir.path().join("missing.txt"))
+        .arg("--camera")
+        .arg(dir.path().join("missing.json"))
+        .arg("--out")
+        .arg(dir.path().join("out"))
+        .output()
+        .expect("runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert_eq!(
+        stderr.matches("No such file or directory").count(),
+        1,
+        "{stderr}"
+    );
 }

@@ -199,6 +199,16 @@ pub fn read(path: &Path) -> Result<GaussianMap, PlyError> {
         .collect();
     let uncertainty = index("uncertainty");
     let stride = properties.len() * 4;
+    // The header's count is only a claim: memory is reserved for what the file can hold, so a
+    // damaged count is a clear error instead of an allocation the machine cannot make.
+    let data_bytes = std::fs::metadata(path).map_err(io_error(path))?.len() as usize;
+    if stride > 0 && count > data_bytes / stride {
+        return Err(PlyError::Truncated {
+            path: path.display().to_string(),
+            expected: count,
+            found: data_bytes / stride,
+        });
+    }
     let mut map = GaussianMap::new(Gaussians::default(), Vec::with_capacity(count));
     let mut record = vec![0u8; stride];
     let mut anisotropic = 0usize;

@@ -229,6 +229,24 @@ fn truncated_and_foreign_ply_files_are_refused_clearly() {
         }
         other => panic!("expected Truncated, got {other:?}"),
     }
+    // A damaged count claims more Gaussians than any machine holds: refused, not allocated.
+    let text = String::from_utf8_lossy(&bytes[..bytes.len().min(2000)]).into_owned();
+    let declared = format!("element vertex {}", map.len());
+    assert!(text.contains(&declared));
+    let header_end = text.find("end_header\n").expect("header") + "end_header\n".len();
+    let mut huge = text[..header_end]
+        .replace(&declared, "element vertex 1000000000000000")
+        .into_bytes();
+    huge.extend_from_slice(&bytes[header_end..]);
+    let huge_path = dir.path().join("huge.ply");
+    std::fs::write(&huge_path, huge).expect("write");
+    assert!(matches!(
+        ply::read(&huge_path),
+        Err(PlyError::Truncated {
+            expected: 1_000_000_000_000_000,
+            ..
+        })
+    ));
     let mesh = dir.path().join("mesh.ply");
     std::fs::write(
         &mesh,
