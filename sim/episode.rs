@@ -24,6 +24,9 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
+/// The map's means as a coloured point cloud, which transforms.json names for nerfstudio.
+pub const POINT_CLOUD: &str = "points.ply";
+
 /// How compute time relates to simulated time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -82,6 +85,8 @@ pub struct RunConfig {
     pub sensor: SensorConfig,
     /// Hidden test views sampled in free space for the evaluation (0: none).
     pub test_views: usize,
+    /// Spherical-harmonic degree of map.ply: 0, or 3 for the reference 3DGS loader.
+    pub ply_sh_degree: u8,
     /// How the start pose is chosen.
     pub spawn: Spawn,
     /// Splat engine asked for.
@@ -130,8 +135,12 @@ pub struct Metrics {
     pub wall_seconds: f64,
     /// Simulated seconds per wall second.
     pub real_time_factor: f64,
-    /// Metres driven.
+    /// Metres the robot's base drove (its origin on the floor, summed every physics step).
     pub path_length: f64,
+    /// Metres the camera moved from frame to frame: the length of groundtruth.txt's positions,
+    /// which is what trajectory tools (evo) report; longer than the base's when it turns, the
+    /// camera sitting 0.2 m ahead of the axle.
+    pub camera_path_length: f64,
     /// Physics steps with a robot-world contact (floor excluded).
     pub collision_steps: usize,
     /// Recovery events (turn in place after a planner failure, back off after no progress).
@@ -381,6 +390,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     if let Some(frames) = config.fail_writes_after {
         writer.fail_writes_after(frames);
     }
+    writer.name_point_cloud(POINT_CLOUD);
     let engine = Rasteriser::select(config.engine);
     let engine_name = engine.describe();
     let mut mapper = Mapper::new(
@@ -423,6 +433,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     let (mut camera_times, mut physics_times) = (Vec::new(), Vec::new());
     let mut failures = std::collections::BTreeMap::new();
     let (mut collision_steps, mut recovery_events, mut path_length) = (0, 0, 0.0);
+    let (mut camera_path_length, mut last_camera) = (0.0, None::<nalgebra::Vector3<f64>>);
     let mut last_pose = world.pose();
     // The path for trajectory.png: a pose every 50 physics steps (0.1 s at 2 ms).
     let mut path = vec![last_pose];
@@ -447,6 +458,11 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
                 let t0 = Instant::now();
                 camera.capture_into(world.data(), &mut frame)?;
                 writer.write_frame(&frame)?;
+                let at = frame.camera.world_from_camera.translation.vector;
+                if let Some(previous) = last_camera {
+                    camera_path_length += (at - previous).norm();
+                }
+                last_camera = Some(at);
                 camera_times.push(t0.elapsed().as_secs_f64());
                 have_frame = true;
                 next_frame += frame_period;
@@ -623,8 +639,17 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
         ended = format!("error at t = {:.1} s: {}", world.data().time(), e.chain());
     }
     path.push(world.pose());
-    autonomy::ply::write(mapper.map(), &writer.dir().join("map.ply"))
-        .map_err(|e| SimError::Mapping(e.to_string()))?;
+    crate::dataset::write_point_cloud(
+        &writer.dir().join(POINT_CLOUD),
+        &mapper.map().gaussians.means,
+        &mapper.map().gaussians.colours,
+    )?;
+    autonomy::ply::write_with_sh_degree(
+        mapper.map(),
+        &writer.dir().join("map.ply"),
+        config.ply_sh_degree,
+    )
+    .map_err(|e| SimError::Mapping(e.to_string()))?;
     let simulated = world.data().time();
     let final_pose = world.pose();
     let evaluation = evaluate(&world, &mut camera, mapper.engine(), mapper.map(), &tests)?;
@@ -640,6 +665,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
         wall_seconds,
         real_time_factor: simulated / wall_seconds,
         path_length,
+        camera_path_length,
         collision_steps,
         recovery_events,
         plan_failures: failures,

@@ -204,6 +204,10 @@ struct RunArgs {
     /// robot can reach from the site with 0.6 m of room), or x,y,yaw (metres, radians).
     #[arg(long, default_value = "site", allow_hyphen_values = true)]
     spawn: Spawn,
+    /// Spherical-harmonic degree of map.ply: 0 (compact, read by every viewer) or 3 (zero
+    /// f_rest_0..44 added, as graphdeco-inria's reference loader requires by default).
+    #[arg(long, default_value_t = 0, value_parser = parse_sh_degree)]
+    ply_sh_degree: u8,
     /// Hidden test views for the evaluation, sampled in free space (0: skip).
     #[arg(long, default_value_t = 100)]
     test_views: usize,
@@ -314,6 +318,14 @@ struct RecordArgs {
     /// Start pose `x,y,theta` (metres, radians); default: the world's `spawn` site.
     #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
     start: Option<Pose2>,
+}
+
+fn parse_sh_degree(text: &str) -> Result<u8, String> {
+    match text {
+        "0" => Ok(0),
+        "3" => Ok(3),
+        other => Err(format!("{other:?}: map.ply is written at degree 0 or 3")),
+    }
 }
 
 fn main() -> std::process::ExitCode {
@@ -580,6 +592,7 @@ fn run_run(args: RunArgs) -> Result<Option<u8>> {
             ..SensorConfig::default()
         },
         test_views: args.test_views,
+        ply_sh_degree: args.ply_sh_degree,
         spawn: args.spawn,
         engine: args.view.engine.parse().map_err(anyhow::Error::msg)?,
         overwrite: args.overwrite,

@@ -24,6 +24,7 @@ fn config(world: &str, planner: PlannerKind, budget: f64, out: std::path::PathBu
         planner,
         sensor: SensorConfig::default(),
         test_views: 20,
+        ply_sh_degree: 0,
         spawn: Spawn::Site,
         engine: EngineChoice::Cpu,
         overwrite: false,
@@ -79,6 +80,34 @@ fn smoke_episode_explores_without_collisions_and_repeats_exactly() {
         "the same inputs gave different trajectories"
     );
     assert_eq!(first.path_length, second.path_length);
+    // camera_path_length is the length of groundtruth.txt's positions.
+    let poses = splatloop::dataset::read_trajectory(&dir.path().join("a").join("groundtruth.txt"))
+        .expect("poses");
+    let from_file: f64 = poses
+        .windows(2)
+        .map(|w| (w[1].1.translation.vector - w[0].1.translation.vector).norm())
+        .sum();
+    assert!(
+        (first.camera_path_length - from_file).abs() < 1e-6,
+        "{} vs {from_file}",
+        first.camera_path_length
+    );
+    assert!(first.camera_path_length > 0.0);
+    // transforms.json names the coloured point cloud written beside it: the map's means.
+    let transforms: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("a").join("transforms.json")).expect("transforms"),
+    )
+    .expect("json");
+    assert_eq!(transforms["ply_file_path"], "points.ply");
+    let cloud = std::fs::read(dir.path().join("a").join("points.ply")).expect("points.ply");
+    let header = String::from_utf8_lossy(&cloud[..300]).into_owned();
+    assert!(
+        header.contains(&format!("element vertex {}\n", first.gaussians)),
+        "{header}"
+    );
+    assert!(header.contains("property uchar red"), "{header}");
+    let body = cloud.len() - (header.find("end_header\n").expect("header") + "end_header\n".len());
+    assert_eq!(body, 15 * first.gaussians);
     // Everything the episode folder promises is there; the map reads back.
     for file in [
         "metrics.json",

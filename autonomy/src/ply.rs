@@ -84,6 +84,26 @@ fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> PlyError + '_ {
 
 /// Writes `map` to `path`.
 pub fn write(map: &GaussianMap, path: &Path) -> Result<(), PlyError> {
+    write_with_sh_degree(map, path, 0)
+}
+
+/// Higher spherical-harmonic coefficients per Gaussian at degree 3 (15 per colour channel).
+const SH_REST_DEGREE_3: usize = 45;
+
+/// Writes the map with its colours as spherical harmonics of `degree` 0 or 3. Degree 3 adds
+/// f_rest_0..44, all zero (the same colours), which the reference 3DGS loader requires at
+/// its default degree; degree 0 is the compact file every other reader takes.
+pub fn write_with_sh_degree(map: &GaussianMap, path: &Path, degree: u8) -> Result<(), PlyError> {
+    let rest = match degree {
+        0 => 0,
+        3 => SH_REST_DEGREE_3,
+        other => {
+            return Err(PlyError::Foreign {
+                path: path.display().to_string(),
+                reason: format!("spherical-harmonic degree {other} is not written; use 0 or 3"),
+            })
+        }
+    };
     let file = std::fs::File::create(path).map_err(io_error(path))?;
     let mut out = BufWriter::new(file);
     let g = &map.gaussians;
@@ -93,6 +113,11 @@ pub fn write(map: &GaussianMap, path: &Path) -> Result<(), PlyError> {
     );
     for p in PROPERTIES {
         header.push_str(&format!("property float {p}\n"));
+        if p == "f_dc_2" {
+            for k in 0..rest {
+                header.push_str(&format!("property float f_rest_{k}\n"));
+            }
+        }
     }
     header.push_str("end_header\n");
     out.write_all(header.as_bytes()).map_err(io_error(path))?;
@@ -122,8 +147,12 @@ pub fn write(map: &GaussianMap, path: &Path) -> Result<(), PlyError> {
             map.uncertainty.get(i).copied().unwrap_or(0.0),
         ];
         record.clear();
-        for v in values {
+        for (k, v) in values.iter().enumerate() {
             record.extend_from_slice(&v.to_le_bytes());
+            // After f_dc_2 (the 9th value), the zero higher harmonics.
+            if k == 8 {
+                record.extend(std::iter::repeat_n(0u8, 4 * rest));
+            }
         }
         out.write_all(&record).map_err(io_error(path))?;
     }

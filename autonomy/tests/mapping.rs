@@ -323,3 +323,44 @@ fn bad_frames_and_poses_are_refused_and_leave_the_map_unchanged() {
     assert_eq!(mapper.map(), &before);
     assert_eq!(mapper.steps(), 1);
 }
+
+#[test]
+fn a_degree_3_ply_holds_zero_higher_harmonics_and_the_same_map() {
+    let map = small_map();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (plain, full) = (dir.path().join("sh0.ply"), dir.path().join("sh3.ply"));
+    ply::write_with_sh_degree(&map, &plain, 0).expect("degree 0");
+    ply::write_with_sh_degree(&map, &full, 3).expect("degree 3");
+    // The reference loader's 62 properties (f_rest_0..44 between f_dc_2 and opacity), plus
+    // our uncertainty.
+    let bytes = std::fs::read(&full).expect("read");
+    let text = String::from_utf8_lossy(&bytes[..bytes.len().min(4000)]).into_owned();
+    let header = &text[..text.find("end_header").expect("header")];
+    let properties: Vec<&str> = header
+        .lines()
+        .filter_map(|l| l.strip_prefix("property float "))
+        .collect();
+    assert_eq!(properties.len(), 63);
+    assert_eq!(properties[9], "f_rest_0");
+    assert_eq!(properties[53], "f_rest_44");
+    assert_eq!(properties[54], "opacity");
+    assert_eq!(
+        properties.iter().filter(|p| **p != "uncertainty").count(),
+        62
+    );
+    assert!(ply::write_with_sh_degree(&map, &dir.path().join("sh2.ply"), 2).is_err());
+    // The same map, and the same pictures.
+    let (a, b) = (
+        ply::read(&plain).expect("sh0"),
+        ply::read(&full).expect("sh3"),
+    );
+    assert_eq!(a, b);
+    let camera = circle_camera(0, 8, 0.5);
+    let engine = Rasteriser::Cpu;
+    let (ra, rb) = (
+        engine.render(&a.gaussians, &camera).expect("render"),
+        engine.render(&b.gaussians, &camera).expect("render"),
+    );
+    assert_eq!(ra.images().colour, rb.images().colour);
+    assert_eq!(ra.images().depth, rb.images().depth);
+}

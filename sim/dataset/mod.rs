@@ -138,3 +138,27 @@ pub fn refuse_overwrite(out: &Path, overwrite: bool, inputs: &[&Path]) -> Result
     }
     Ok(())
 }
+
+/// Writes points with 8-bit colours as a binary PLY (x y z red green blue): the coloured point
+/// cloud nerfstudio's `ply_file_path` names, read by Open3D and every PLY viewer.
+pub fn write_point_cloud(path: &Path, points: &[[f32; 3]], colours: &[[f32; 3]]) -> Result<()> {
+    use std::io::Write;
+    let io = |e: std::io::Error| SimError::io("cannot write", path, e);
+    let file = std::fs::File::create(path).map_err(io)?;
+    let mut out = std::io::BufWriter::new(file);
+    let n = points.len().min(colours.len());
+    write!(
+        out,
+        "ply\nformat binary_little_endian 1.0\nelement vertex {n}\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n"
+    )
+    .map_err(io)?;
+    for (p, c) in points.iter().zip(colours).take(n) {
+        for v in p {
+            out.write_all(&v.to_le_bytes()).map_err(io)?;
+        }
+        let byte = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u8;
+        out.write_all(&[byte(c[0]), byte(c[1]), byte(c[2])])
+            .map_err(io)?;
+    }
+    out.flush().map_err(io)
+}

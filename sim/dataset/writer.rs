@@ -43,6 +43,8 @@ pub struct DatasetWriter {
     /// Frames after which every write fails (fault injection for the tests of this module's
     /// promises).
     fail_after: Option<usize>,
+    /// The point cloud transforms.json names (the caller writes it).
+    point_cloud: Option<String>,
 }
 
 #[derive(Serialize)]
@@ -68,6 +70,9 @@ struct TransformsFile<'a> {
     p1: f64,
     p2: f64,
     depth_unit_scale_factor: f64,
+    /// A coloured point cloud beside it, which nerfstudio's splatfacto starts from.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    ply_file_path: Option<&'a str>,
     frames: &'a [TransformFrame],
 }
 
@@ -243,7 +248,14 @@ impl DatasetWriter {
             max_range,
             frames: 0,
             fail_after: None,
+            point_cloud: None,
         })
+    }
+
+    /// Names the coloured point cloud (a PLY beside transforms.json) that transforms.json
+    /// points nerfstudio to; call before the first frame. The caller writes the file.
+    pub fn name_point_cloud(&mut self, file: &str) {
+        self.point_cloud = Some(file.to_owned());
     }
 
     /// Makes every write fail once `frames` frames are written, as a full disk would.
@@ -361,6 +373,7 @@ impl DatasetWriter {
                 p1: 0.0,
                 p2: 0.0,
                 depth_unit_scale_factor: 1.0 / DEPTH_SCALE,
+                ply_file_path: self.point_cloud.as_deref(),
                 frames: &[],
             };
             let json =
