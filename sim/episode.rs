@@ -47,6 +47,16 @@ pub enum PlannerKind {
     Survey,
 }
 
+impl PlannerKind {
+    /// The name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            PlannerKind::RtGuide => "rtguide",
+            PlannerKind::Survey => "survey",
+        }
+    }
+}
+
 impl std::str::FromStr for PlannerKind {
     type Err = String;
 
@@ -653,11 +663,24 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     let simulated = world.data().time();
     let final_pose = world.pose();
     let evaluation = evaluate(&world, &mut camera, mapper.engine(), mapper.map(), &tests)?;
+    let title = format!(
+        "{} | {} | {:.0} of {:.0} s | coverage {:.1}% | PSNR {:.1} dB",
+        config.world.file_name().map_or_else(
+            || config.world.display().to_string(),
+            |n| n.to_string_lossy().into_owned()
+        ),
+        config.planner.name(),
+        simulated,
+        config.budget,
+        100.0 * evaluation.coverage,
+        evaluation.psnr
+    );
     crate::plot::write_trajectory_png(
         &writer.dir().join("trajectory.png"),
         &world,
         &path,
         mapper.map(),
+        &title,
     )?;
     let wall_seconds = wall.elapsed().as_secs_f64();
     let metrics = Metrics {

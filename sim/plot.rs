@@ -80,14 +80,20 @@ fn ramp(t: f64) -> [u8; 3] {
     std::array::from_fn(|c| (stops[k][c] + f * (stops[k + 1][c] - stops[k][c])) as u8)
 }
 
-/// Draws the world's footprint, the map and the path, and writes the PNG.
+/// The floor rectangle a picture shows: (min x, min y), (max x, max y), metres.
+pub type Extent = ([f64; 2], [f64; 2]);
+
+/// Draws the world's footprint, the map and the path under `title`, with a metre scale and a
+/// legend, and writes the PNG; returns the floor rectangle it shows.
 pub fn write_trajectory_png(
     path_png: &Path,
     world: &World,
     path: &[Pose2],
     map: &GaussianMap,
-) -> Result<()> {
-    // Extent: the path and the map above the floor, with a margin.
+    title: &str,
+) -> Result<Extent> {
+    // Extent: the whole world (every geom but the robot's), the path and the map above the
+    // floor, with a margin.
     let mut lo = [f64::INFINITY; 2];
     let mut hi = [f64::NEG_INFINITY; 2];
     let mut grow = |x: f64, y: f64| {
@@ -96,6 +102,18 @@ pub fn write_trajectory_png(
             hi = [hi[0].max(x), hi[1].max(y)];
         }
     };
+    for geom in 0..world.model().geom_count() {
+        if world.robot().owns_geom(geom) {
+            continue;
+        }
+        if let Some(f) =
+            crate::floorplan::footprint::Footprint::of(world.model(), world.data(), geom)
+        {
+            let (a, b) = f.bounds();
+            grow(a[0], a[1]);
+            grow(b[0], b[1]);
+        }
+    }
     for p in path {
         grow(p.x, p.y);
     }
@@ -108,8 +126,8 @@ pub fn write_trajectory_png(
         lo = [-1.0, -1.0];
         hi = [1.0, 1.0];
     }
-    let lo = [lo[0].max(-50.0) - 0.5, lo[1].max(-50.0) - 0.5];
-    let hi = [hi[0].min(50.0) + 0.5, hi[1].min(50.0) + 0.5];
+    let lo = [lo[0].max(-500.0) - 0.5, lo[1].max(-500.0) - 0.5];
+    let hi = [hi[0].min(500.0) + 0.5, hi[1].min(500.0) + 0.5];
     let scale = MAX_SCALE.min(MAX_SIDE / (hi[0] - lo[0]).max(hi[1] - lo[1]));
     let (width, height) = (
         ((hi[0] - lo[0]) * scale).ceil() as usize,
@@ -165,11 +183,113 @@ pub fn write_trajectory_png(
         canvas.disc(first.0, first.1, 5.0, [30, 160, 60]);
         canvas.disc(last.0, last.1, 5.0, [200, 30, 30]);
     }
+    let picture = annotate(&canvas, title);
     let (w, h) = (
-        u32::try_from(width).map_err(|_| too_big(path_png))?,
-        u32::try_from(height).map_err(|_| too_big(path_png))?,
+        u32::try_from(picture.width).map_err(|_| too_big(path_png))?,
+        u32::try_from(picture.height).map_err(|_| too_big(path_png))?,
     );
-    crate::dataset::write_rgb_png(path_png, w, h, &canvas.rgb)
+    crate::dataset::write_rgb_png(path_png, w, h, &picture.rgb)?;
+    Ok((lo, hi))
+}
+
+/// Height of the title band and of the legend band, pixels.
+const HEADER: usize = 24;
+const FOOTER: usize = 44;
+/// Narrowest picture, so the title and legend fit, pixels.
+const MIN_WIDTH: usize = 640;
+
+/// The map canvas with a title above and a legend and metre scale below.
+fn annotate(map: &Canvas, title: &str) -> Canvas {
+    let width = map.width.max(MIN_WIDTH);
+    let height = map.height + HEADER + FOOTER;
+    let mut out = Canvas {
+        lo: map.lo,
+        scale: map.scale,
+        width,
+        height,
+        rgb: vec![255; 3 * width * height],
+    };
+    for row in 0..map.height {
+        let from = 3 * row * map.width;
+        let to = 3 * ((row + HEADER) * width);
+        out.rgb[to..to + 3 * map.width].copy_from_slice(&map.rgb[from..from + 3 * map.width]);
+    }
+    let ink = [20, 20, 30];
+    out.text(6, 8, title, ink);
+    // The legend: swatches with words.
+    let y = HEADER + map.height + 8;
+    let mut x = 6;
+    for (colour, word) in [
+        ([236, 232, 222], "floor"),
+        ([120, 120, 120], "obstacle (darker: taller)"),
+        ([30, 160, 60], "start"),
+        ([200, 30, 30], "end"),
+        ([30, 30, 60], "path"),
+    ] {
+        out.swatch(x, y, colour);
+        out.text(x + 14, y + 1, word, ink);
+        x += 14 + 8 * word.len() + 14;
+    }
+    let y = y + 18;
+    out.text(6, y + 1, "Gaussians by uncertainty: low", ink);
+    let x = 6 + 8 * 30;
+    for k in 0..60 {
+        let colour = ramp(k as f64 / 59.0);
+        for dy in 0..10 {
+            out.put((x + k) as f64, (y + dy) as f64, colour);
+        }
+    }
+    out.text(x + 64, y + 1, "high", ink);
+    // A scale bar of a round number of metres, about 80 pixels long.
+    let metres = [0.5, 1.0, 2.0, 5.0, 10.0, 20.0]
+        .into_iter()
+        .find(|m| m * map.scale >= 60.0)
+        .unwrap_or(50.0);
+    let length = (metres * map.scale).round() as usize;
+    let bar_x = width.saturating_sub(length + 60);
+    for dx in 0..length {
+        for dy in 0..3 {
+            out.put((bar_x + dx) as f64, (y + 4 + dy) as f64, ink);
+        }
+    }
+    for end in [bar_x, bar_x + length - 1] {
+        for dy in 0..10 {
+            out.put(end as f64, (y + dy) as f64, ink);
+        }
+    }
+    out.text(bar_x + length + 6, y + 1, &format!("{metres} m"), ink);
+    out
+}
+
+impl Canvas {
+    /// Writes `text` with its top-left corner at (x, y) in 8x8 glyphs.
+    fn text(&mut self, x: usize, y: usize, text: &str, colour: [u8; 3]) {
+        use font8x8::UnicodeFonts;
+        for (k, c) in text.chars().enumerate() {
+            let glyph = font8x8::BASIC_FONTS.get(c).unwrap_or([0; 8]);
+            for (row, bits) in glyph.iter().enumerate() {
+                for col in 0..8 {
+                    if bits >> col & 1 == 1 {
+                        self.put((x + 8 * k + col) as f64, (y + row) as f64, colour);
+                    }
+                }
+            }
+        }
+    }
+
+    /// A 10 x 10 square of `colour` with a thin dark border.
+    fn swatch(&mut self, x: usize, y: usize, colour: [u8; 3]) {
+        for dy in 0..10 {
+            for dx in 0..10 {
+                let edge = dx == 0 || dy == 0 || dx == 9 || dy == 9;
+                self.put(
+                    (x + dx) as f64,
+                    (y + dy) as f64,
+                    if edge { [60, 60, 60] } else { colour },
+                );
+            }
+        }
+    }
 }
 
 fn too_big(path: &Path) -> SimError {

@@ -311,3 +311,44 @@ fn generate_refuses_bad_areas_kinds_and_existing_files() {
     let leftovers: Vec<_> = std::fs::read_dir(dir.path()).expect("dir").collect();
     assert_eq!(leftovers.len(), 1, "no candidate files left behind");
 }
+
+#[test]
+fn trajectory_png_shows_the_whole_world_with_its_title() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let world = load(&repo_path("worlds/suite/warehouse_02.xml"));
+    let (report, _) = check_world(&world).expect("check");
+    let png = dir.path().join("trajectory.png");
+    let map = autonomy::map::GaussianMap::new(Default::default(), Vec::new());
+    let path = [world.start()];
+    let (lo, hi) =
+        splatloop::plot::write_trajectory_png(&png, &world, &path, &map, "a title").expect("plot");
+    let (wlo, whi) = report.bounds;
+    assert!(whi[0] - wlo[0] > 15.0, "a world larger than the room");
+    assert!(
+        lo[0] <= wlo[0] && lo[1] <= wlo[1] && hi[0] >= whi[0] && hi[1] >= whi[1],
+        "{lo:?}..{hi:?} does not cover {wlo:?}..{whi:?}"
+    );
+    // The outer walls are drawn at the world's four corners (dark pixels there).
+    let (width, height, rgb) = splatloop::dataset::read_rgb_png(&png).expect("png");
+    let scale = 1200.0 / (hi[0] - lo[0]).max(hi[1] - lo[1]);
+    let map_height = ((hi[1] - lo[1]) * scale).ceil() as usize;
+    assert!(
+        height as usize > map_height,
+        "room for the title and legend"
+    );
+    for (x, y) in [
+        (wlo[0] + 0.03, wlo[1] + 0.03),
+        (whi[0] - 0.03, wlo[1] + 0.03),
+        (wlo[0] + 0.03, whi[1] - 0.03),
+        (whi[0] - 0.03, whi[1] - 0.03),
+    ] {
+        let px = ((x - lo[0]) * scale) as usize;
+        let py = 24 + map_height - 1 - ((y - lo[1]) * scale) as usize;
+        let i = 3 * (py * width as usize + px);
+        assert!(
+            rgb[i] < 120,
+            "no wall drawn at ({x:.2}, {y:.2}): {:?}",
+            &rgb[i..i + 3]
+        );
+    }
+}
