@@ -382,16 +382,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     config.sensor.validate()?;
     let wall = Instant::now();
     let mut world = World::load(&config.world, &config.sensor)?;
-    let physics_rate = 1.0 / world.model().timestep();
-    if config.camera_rate > physics_rate {
-        return Err(SimError::InvalidArgument {
-            what: "camera rate",
-            detail: format!(
-                "{} frames/s is faster than the physics ({physics_rate:.0} steps/s), which a frame is taken at; give at most {physics_rate:.0}",
-                config.camera_rate
-            ),
-        });
-    }
+    world.check_frame_rate(config.camera_rate, "camera rate")?;
     let start_pose = place_robot(&mut world, config.spawn, config.seed)?;
     crate::world_check::require_floor(&world)?;
     let gl = EglContext::new()?;
@@ -617,15 +608,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
             if let Some(contact) = world.robot_collisions().next() {
                 // One warning per contact episode: contacts flicker from step to step.
                 if time - last_touch > 0.5 {
-                    let other = if world.robot().owns_geom(contact.geom1) {
-                        contact.geom2
-                    } else {
-                        contact.geom1
-                    };
-                    let name = world
-                        .model()
-                        .name(crate::mujoco::ObjKind::Geom, other)
-                        .unwrap_or_else(|| format!("geom {other}"));
+                    let name = world.touched_name(&contact);
                     tracing::warn!(
                         "t = {:.1} s: the robot touches {name} at ({:.2}, {:.2})",
                         time,

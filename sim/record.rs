@@ -110,16 +110,7 @@ pub fn record(config: &RecordConfig, on_progress: &mut dyn FnMut(f64)) -> Result
     config.validate()?;
     let mut world = World::load(&config.world, &config.sensor)?;
     let schedule = ControlSchedule::from_arg(&config.controls, &world.robot().limits)?;
-    let physics_rate = 1.0 / world.model().timestep();
-    if config.frame_rate > physics_rate {
-        return Err(SimError::InvalidArgument {
-            what: "frame rate",
-            detail: format!(
-                "{} frames/s is faster than the physics ({physics_rate:.0} steps/s), which a frame is taken at; give at most {physics_rate:.0}",
-                config.frame_rate
-            ),
-        });
-    }
+    world.check_frame_rate(config.frame_rate, "frame rate")?;
     // A start inside an obstacle would throw the robot; one without a floor would drop it.
     let spawn = config.start.map_or(Spawn::Site, Spawn::Pose);
     place_robot(&mut world, spawn, config.seed)?;

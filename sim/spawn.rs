@@ -4,7 +4,6 @@
 
 use crate::error::{Result, SimError};
 use crate::floorplan::FloorPlan;
-use crate::mujoco::ObjKind;
 use crate::robot::Pose2;
 use crate::world::World;
 use rand::SeedableRng;
@@ -102,15 +101,7 @@ pub fn place_robot(world: &mut World, spawn: Spawn, seed: u64) -> Result<Pose2> 
     }
     let start = world.start();
     if let Some(contact) = world.robot_collisions().next() {
-        let other = if world.robot().owns_geom(contact.geom1) {
-            contact.geom2
-        } else {
-            contact.geom1
-        };
-        let name = world
-            .model()
-            .name(ObjKind::Geom, other)
-            .unwrap_or_else(|| format!("geom {other}"));
+        let name = world.touched_name(&contact);
         return Err(SimError::InvalidArgument {
             what: "spawn",
             detail: format!(

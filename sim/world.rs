@@ -99,6 +99,33 @@ impl World {
         })
     }
 
+    /// The name of what the robot touches in `contact` (the geom that is not the robot's).
+    pub fn touched_name(&self, contact: &Contact) -> String {
+        let other = if self.robot.owns_geom(contact.geom1) {
+            contact.geom2
+        } else {
+            contact.geom1
+        };
+        self.model
+            .name(ObjKind::Geom, other)
+            .unwrap_or_else(|| format!("geom {other}"))
+    }
+
+    /// An error unless `rate` frames per second (`what`: "camera rate", "frame rate") is at
+    /// most the physics rate, which frames are taken at.
+    pub fn check_frame_rate(&self, rate: f64, what: &'static str) -> Result<()> {
+        let physics_rate = 1.0 / self.model.timestep();
+        if rate > physics_rate {
+            return Err(crate::error::SimError::InvalidArgument {
+                what,
+                detail: format!(
+                    "{rate} frames/s is faster than the physics ({physics_rate:.0} steps/s), which a frame is taken at; give at most {physics_rate:.0}"
+                ),
+            });
+        }
+        Ok(())
+    }
+
     /// Makes the robot's RGB-D camera; needs a current EGL context.
     pub fn make_camera(
         &self,

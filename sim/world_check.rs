@@ -78,13 +78,7 @@ pub fn check_world(world: &World) -> Result<(WorldReport, FloorPlan)> {
     // The start: MuJoCo's own contacts, then the plan's clearance.
     let touching: Vec<String> = world
         .robot_collisions()
-        .map(|c| {
-            name(if world.robot().owns_geom(c.geom1) {
-                c.geom2
-            } else {
-                c.geom1
-            })
-        })
+        .map(|c| world.touched_name(&c))
         .collect();
     if !touching.is_empty() {
         problems.push(format!(
