@@ -3,36 +3,13 @@
 //! with half its Gaussians gone, the test poses against MuJoCo's contacts, and a boxed-in
 //! robot that must end its episode with a recovery and a reason.
 
-use crate::support::{fixture, repo_path};
+use crate::support::{fixture, repo_path, run_config as config};
 use autonomy::splat::{EngineChoice, Rasteriser};
 use splatloop::camera::SensorConfig;
 use splatloop::dataset::Dataset;
-use splatloop::episode::{run_episode, Latency, PlannerKind, RunConfig};
+use splatloop::episode::{run_episode, PlannerKind};
 use splatloop::evaluate::{evaluate, TestSet};
 use splatloop::novel_view::{evaluate_map, render_map, RenderConfig};
-use splatloop::spawn::Spawn;
-
-fn config(world: &str, planner: PlannerKind, budget: f64, out: std::path::PathBuf) -> RunConfig {
-    RunConfig {
-        world: repo_path(world),
-        budget,
-        seed: 3,
-        camera_rate: 5.0,
-        think_period: 1.0,
-        iterations: 10,
-        latency: Latency::None,
-        planner,
-        sensor: SensorConfig::default(),
-        test_views: 20,
-        ply_sh_degree: 0,
-        spawn: Spawn::Site,
-        engine: EngineChoice::Cpu,
-        overwrite: false,
-        stop: Default::default(),
-        fail_writes_after: None,
-        out,
-    }
-}
 
 #[test]
 fn smoke_episode_explores_without_collisions_and_repeats_exactly() {

@@ -5,13 +5,12 @@
 //! inputs that used to pass silently are errors or warnings; progress shows without a
 //! terminal.
 
-use crate::support::{fixture, repo_path};
+use crate::support::{fixture, repo_path, run_config};
 use splatloop::camera::SensorConfig;
 use splatloop::dataset::{read_trajectory, CameraFile, Dataset, DatasetWriter};
-use splatloop::episode::{run_episode, Latency, PlannerKind, RunConfig};
+use splatloop::episode::{run_episode, PlannerKind, RunConfig};
 use splatloop::record::{record, RecordConfig};
 use splatloop::robot::Pose2;
-use splatloop::spawn::Spawn;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -217,23 +216,13 @@ fn an_error_mid_episode_is_written_into_ended_and_the_earlier_episode_kept() {
     record(&record_config(&out, 0.4, false), &mut |_| {}).expect("an earlier episode");
     let before = snapshot(&out);
     let config = RunConfig {
-        world: repo_path("worlds/room.xml"),
         budget: 5.0,
         seed: 0,
-        camera_rate: 5.0,
-        think_period: 1.0,
         iterations: 2,
-        latency: Latency::None,
-        planner: PlannerKind::RtGuide,
-        sensor: SensorConfig::default(),
         test_views: 0,
-        ply_sh_degree: 0,
-        spawn: Spawn::Site,
-        engine: autonomy::splat::EngineChoice::Cpu,
         overwrite: true,
-        stop: Default::default(),
         fail_writes_after: Some(6),
-        out: out.clone(),
+        ..run_config("worlds/room.xml", PlannerKind::RtGuide, 5.0, out.clone())
     };
     let error = run_episode(&config, &mut |_| {}).expect_err("the disk fills up");
     assert!(error.chain().contains("no space left"), "{}", error.chain());
@@ -418,23 +407,16 @@ fn the_silent_cases_are_errors_or_warnings() {
     assert!(error.to_string().contains("no floor"), "{error}");
     // A camera faster than the physics.
     let run = RunConfig {
-        world: repo_path("worlds/room.xml"),
-        budget: 1.0,
         seed: 0,
         camera_rate: 1000.0,
-        think_period: 1.0,
         iterations: 1,
-        latency: Latency::None,
-        planner: PlannerKind::RtGuide,
-        sensor: SensorConfig::default(),
         test_views: 0,
-        ply_sh_degree: 0,
-        spawn: Spawn::Site,
-        engine: autonomy::splat::EngineChoice::Cpu,
-        overwrite: false,
-        stop: Default::default(),
-        fail_writes_after: None,
-        out: dir.path().join("c"),
+        ..run_config(
+            "worlds/room.xml",
+            PlannerKind::RtGuide,
+            1.0,
+            dir.path().join("c"),
+        )
     };
     let error = run_episode(&run, &mut |_| {}).expect_err("refused");
     assert!(

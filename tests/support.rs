@@ -18,3 +18,32 @@ pub fn fixture(name: &str) -> PathBuf {
 pub fn room() -> World {
     World::load(&repo_path("worlds/room.xml"), &SensorConfig::default()).expect("room loads")
 }
+
+/// A closed-loop episode in `world` (repository-relative) for the tests: seed 3, latency
+/// none, the CPU engine, 20 hidden views, 10 mapping iterations.
+pub fn run_config(
+    world: &str,
+    planner: splatloop::episode::PlannerKind,
+    budget: f64,
+    out: std::path::PathBuf,
+) -> splatloop::episode::RunConfig {
+    splatloop::episode::RunConfig {
+        world: repo_path(world),
+        budget,
+        seed: 3,
+        camera_rate: 5.0,
+        think_period: 1.0,
+        iterations: 10,
+        latency: splatloop::episode::Latency::None,
+        planner,
+        sensor: SensorConfig::default(),
+        test_views: 20,
+        ply_sh_degree: 0,
+        spawn: splatloop::spawn::Spawn::Site,
+        engine: autonomy::splat::EngineChoice::Cpu,
+        overwrite: false,
+        stop: Default::default(),
+        fail_writes_after: None,
+        out,
+    }
+}

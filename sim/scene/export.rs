@@ -69,12 +69,7 @@ pub fn export_world(world: &World, obj: &Path, overwrite: bool) -> Result<Export
     let mtl = folder.join(format!("{stem}.mtl"));
     let textures_dir = folder.join(format!("{stem}_textures"));
     for path in [obj, mtl.as_path(), textures_dir.as_path()] {
-        if path.exists() && !overwrite {
-            return Err(SimError::InvalidArgument {
-                what: "output",
-                detail: format!("{} exists; pass --overwrite to replace it", path.display()),
-            });
-        }
+        crate::dataset::refuse_overwrite(path, overwrite, &[model.path()])?;
     }
     let mut text = format!(
         "# Exported by splatloop from {}: Y up, metres.\nmtllib {stem}.mtl\n",

@@ -102,15 +102,7 @@ pub fn import_scene(config: &ImportConfig) -> Result<ImportSummary> {
             path: config.scene.clone(),
         });
     }
-    if config.out.exists() && !config.overwrite {
-        return Err(SimError::InvalidArgument {
-            what: "output",
-            detail: format!(
-                "{} exists; pass --overwrite to replace it",
-                config.out.display()
-            ),
-        });
-    }
+    crate::dataset::refuse_overwrite(&config.out, config.overwrite, &[&config.scene])?;
     let text = std::fs::read_to_string(&config.scene)
         .map_err(|e| SimError::io("cannot read", &config.scene, e))?;
     check_obj_lines(&config.scene, &text)?;
@@ -256,15 +248,7 @@ pub fn import_scene(config: &ImportConfig) -> Result<ImportSummary> {
     std::fs::create_dir_all(&folder).map_err(|e| SimError::io("cannot create", &folder, e))?;
     let assets_name = format!("{stem}_assets");
     let assets = folder.join(&assets_name);
-    if assets.exists() && !config.overwrite {
-        return Err(SimError::InvalidArgument {
-            what: "output",
-            detail: format!(
-                "{} exists; pass --overwrite to replace it",
-                assets.display()
-            ),
-        });
-    }
+    crate::dataset::refuse_overwrite(&assets, config.overwrite, &[&config.scene])?;
     let staging_name = format!(".{stem}_assets.partial");
     let staging = folder.join(&staging_name);
     let candidate = folder.join(format!(".{stem}.candidate.xml"));

@@ -139,15 +139,7 @@ pub fn generate(
             });
         }
     }
-    if config.out.exists() && !config.overwrite {
-        return Err(SimError::InvalidArgument {
-            what: "output",
-            detail: format!(
-                "{} exists; pass --overwrite to replace it",
-                config.out.display()
-            ),
-        });
-    }
+    crate::dataset::refuse_overwrite(&config.out, config.overwrite, &[])?;
     let folder = match config.out.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
