@@ -350,7 +350,7 @@ pub fn clutter_lot(n: usize, seed: u64) -> autonomy::map::GaussianMap {
 
 /// Times full plans over [`clutter_lot`] maps with each collision engine.
 pub fn bench_plan(counts: &[usize], brute_force_limit: usize, gpu: bool) -> Vec<PlanBenchRow> {
-    use autonomy::planner::unicycle::State;
+    use autonomy::planner::unicycle::Pose2;
     use autonomy::planner::{CollisionEngine, PlannerConfig, RtGuidePlanner};
     let mut rows = Vec::new();
     for &n in counts {
@@ -373,7 +373,7 @@ pub fn bench_plan(counts: &[usize], brute_force_limit: usize, gpu: bool) -> Vec<
         }
         for (name, engine) in engines {
             let mut planner = RtGuidePlanner::new(PlannerConfig::default(), engine);
-            let robot = State {
+            let robot = Pose2 {
                 x: 0.0,
                 y: 0.0,
                 theta: 0.3,
@@ -422,7 +422,7 @@ pub fn bench_viewpoints(n: usize, viewpoints: usize) -> (f64, f64, f64) {
     use autonomy::map::ClassifyOptions;
     use autonomy::planner::information::{CameraMount, ViewCounter};
     use autonomy::planner::mirror::MapMirror;
-    use autonomy::planner::unicycle::State;
+    use autonomy::planner::unicycle::Pose2;
     let map = clutter_lot(n, 8);
     let start = Instant::now();
     let options = ClassifyOptions::default();
@@ -433,10 +433,10 @@ pub fn bench_viewpoints(n: usize, viewpoints: usize) -> (f64, f64, f64) {
     counter.apply(&changes);
     counter.set_stats(&map.stats(&options));
     let build = start.elapsed().as_secs_f64();
-    let states: Vec<State> = (0..viewpoints)
+    let states: Vec<Pose2> = (0..viewpoints)
         .map(|i| {
             let a = i as f64 * 0.618;
-            State {
+            Pose2 {
                 x: 15.0 * (a * 1.3).sin(),
                 y: 15.0 * (a * 0.7).cos(),
                 theta: a,

@@ -14,6 +14,7 @@ pub mod evaluate;
 pub mod floorplan;
 pub mod mujoco;
 pub mod novel_view;
+pub mod planners;
 pub mod plot;
 pub mod record;
 pub mod robot;

@@ -178,10 +178,30 @@ struct RunArgs {
     /// MJCF world that includes the robot (models/unicycle.xml).
     #[arg(long, default_value = "worlds/room.xml")]
     world: PathBuf,
-    /// Planner: rtguide (information-driven, on the map alone) or survey (a lawn-mower over
-    /// the world's free space, which it knows: the upper bound to compare with).
+    /// Planner: rtguide (RT-GuIDE: information-driven, on the map alone), fbe (frontier
+    /// exploration, AG-SLAM's baseline), agslam (AG-SLAM's Fisher-information planner) or
+    /// survey (a lawn-mower over the world's free space, which it knows: the upper bound to
+    /// compare with). All but the survey drive through the same executor.
     #[arg(long, default_value = "rtguide")]
     planner: String,
+    /// RT-GuIDE's uncertainty of a Gaussian: l2 (its displacement's norm, the paper's) or sq
+    /// (the squared norm: the paper's Table II ablation).
+    #[arg(long, default_value = "l2")]
+    rtguide_uncertainty: String,
+    /// agslam: weight of the localisation term log det(J^T J) in the goal score (the
+    /// authors' code's 0.5; 0 is the paper's Table 3 ablation).
+    #[arg(long, default_value_t = 0.5)]
+    pose_weight: f64,
+    /// agslam: goal poses sampled around the chosen frontier cluster per plan (the authors
+    /// use 256; the default is what fits the 1 s planning period on one CPU core, see
+    /// BENCHMARKS.md).
+    #[arg(long, default_value_t = autonomy::explore::agslam::AgslamConfig::default().candidates)]
+    agslam_candidates: usize,
+    /// agslam: keep H_train incrementally (each keyframe's Fisher added once) or recompute it
+    /// over every keyframe at each plan (full, as the authors' code; slower, same choices on
+    /// a settled map).
+    #[arg(long, default_value = "incremental")]
+    agslam_train: String,
     /// Simulated seconds to explore.
     #[arg(long, default_value_t = 60.0)]
     budget: f64,
@@ -586,6 +606,20 @@ fn run_run(args: RunArgs) -> Result<Option<u8>> {
         iterations: args.iterations,
         latency,
         planner: args.planner.parse().map_err(anyhow::Error::msg)?,
+        planner_options: splatloop::episode::PlannerOptions {
+            rtguide_uncertainty: match args.rtguide_uncertainty.as_str() {
+                "l2" => autonomy::mapping::UncertaintyNorm::L2,
+                "sq" => autonomy::mapping::UncertaintyNorm::Sq,
+                other => anyhow::bail!("unknown --rtguide-uncertainty {other:?}; use l2 or sq"),
+            },
+            pose_weight: args.pose_weight,
+            agslam_candidates: args.agslam_candidates,
+            agslam_train: match args.agslam_train.as_str() {
+                "incremental" => autonomy::explore::agslam::TrainMode::Incremental,
+                "full" => autonomy::explore::agslam::TrainMode::Full,
+                other => anyhow::bail!("unknown --agslam-train {other:?}; use incremental or full"),
+            },
+        },
         sensor: SensorConfig {
             width: args.view.width,
             height: args.view.height,

@@ -3,7 +3,6 @@
 
 use crate::error::{Result, SimError};
 use crate::mujoco::{Data, Model, ObjKind};
-use serde::{Deserialize, Serialize};
 
 /// Names the robot model (`models/unicycle.xml`) must provide.
 pub mod names {
@@ -25,43 +24,7 @@ pub mod names {
     pub const SPAWN_SITE: &str = "spawn";
 }
 
-/// Unicycle velocity limits from the issue: v in [0, 0.6] m/s, |w| <= 0.9 rad/s.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct DriveLimits {
-    /// Largest forward speed, m/s.
-    pub max_forward: f64,
-    /// Largest turn rate magnitude, rad/s.
-    pub max_turn: f64,
-}
-
-impl Default for DriveLimits {
-    fn default() -> Self {
-        DriveLimits {
-            max_forward: 0.6,
-            max_turn: 0.9,
-        }
-    }
-}
-
-/// A unicycle command: forward speed v (m/s) and turn rate w (rad/s).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct UnicycleCommand {
-    /// Forward speed, m/s.
-    pub v: f64,
-    /// Turn rate, rad/s (counter-clockwise positive).
-    pub w: f64,
-}
-
-/// Planar robot pose (px, py, theta) in the world frame.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct Pose2 {
-    /// x, metres.
-    pub x: f64,
-    /// y, metres.
-    pub y: f64,
-    /// Heading, radians, counter-clockwise from +x.
-    pub theta: f64,
-}
+pub use autonomy::drive::{DriveLimits, Pose2, UnicycleCommand};
 
 /// Where the robot's parts sit in the compiled model.
 #[derive(Debug, Clone)]
@@ -171,10 +134,7 @@ impl Robot {
 
     /// Clamps a command to the drive limits.
     pub fn clamp(&self, command: UnicycleCommand) -> UnicycleCommand {
-        UnicycleCommand {
-            v: command.v.clamp(0.0, self.limits.max_forward),
-            w: command.w.clamp(-self.limits.max_turn, self.limits.max_turn),
-        }
+        self.limits.clamp(command)
     }
 
     /// Drive controller: sets the wheel velocity targets that realise `command` (clamped to

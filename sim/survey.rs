@@ -5,12 +5,15 @@
 
 use crate::error::{Result, SimError};
 use crate::evaluate::free;
-use crate::robot::{Pose2, UnicycleCommand};
+use crate::robot::{DriveLimits, Pose2, UnicycleCommand};
 use crate::world::World;
+use autonomy::drive::{advance, wrap_angle};
+use autonomy::explore::{Decision, Plan, Planner};
+use autonomy::map::GaussianMap;
 use autonomy::math::TotalF64;
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, VecDeque};
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::TAU;
 
 /// How the lawn-mower is laid out.
 #[derive(Debug, Clone, Copy)]
@@ -240,6 +243,7 @@ pub fn plan_survey(world: &World, config: &SurveyConfig) -> Result<Vec<SurveySte
 /// Follows survey steps on the true pose: turn toward the next point, drive while facing it.
 #[derive(Debug, Clone)]
 pub struct SurveyDriver {
+    limits: DriveLimits,
     steps: Vec<SurveyStep>,
     next: usize,
     turned: f64,
@@ -248,8 +252,9 @@ pub struct SurveyDriver {
 
 impl SurveyDriver {
     /// A driver at the first step.
-    pub fn new(steps: Vec<SurveyStep>) -> Self {
+    pub fn new(steps: Vec<SurveyStep>, limits: DriveLimits) -> Self {
         SurveyDriver {
+            limits,
             steps,
             next: 0,
             turned: 0.0,
@@ -272,18 +277,22 @@ impl SurveyDriver {
             match *step {
                 SurveyStep::LookAround => {
                     if let Some(last) = self.last_heading {
-                        self.turned += wrap(pose.theta - last).abs();
+                        self.turned += wrap_angle(pose.theta - last).abs();
                     }
                     self.last_heading = Some(pose.theta);
                     if self.turned < TAU {
-                        return UnicycleCommand { v: 0.0, w: 0.9 };
+                        return UnicycleCommand {
+                            v: 0.0,
+                            w: self.limits.max_turn,
+                        };
                     }
                 }
                 SurveyStep::GoTo([x, y]) => {
                     let (dx, dy) = (x - pose.x, y - pose.y);
                     if dx.hypot(dy) > 0.12 {
-                        let error = wrap(dy.atan2(dx) - pose.theta);
-                        let w = (2.0 * error).clamp(-0.9, 0.9);
+                        let error = wrap_angle(dy.atan2(dx) - pose.theta);
+                        let turn = self.limits.max_turn;
+                        let w = (2.0 * error).clamp(-turn, turn);
                         let v = if error.abs() > 0.4 {
                             0.0
                         } else {
@@ -300,12 +309,68 @@ impl SurveyDriver {
     }
 }
 
-/// An angle wrapped into (-pi, pi].
-fn wrap(a: f64) -> f64 {
-    let r = (a + PI).rem_euclid(TAU) - PI;
-    if r <= -PI {
-        r + TAU
-    } else {
-        r
+/// The survey as a planner: each plan runs the pursuit driver on the unicycle model for one
+/// planning period in steps of `tick`, from the pose the plan starts at, so the survey drives
+/// through the same tick as every other planner. It knows the world; nothing else does.
+#[derive(Debug, Clone)]
+pub struct SurveyPlanner {
+    driver: SurveyDriver,
+    period: f64,
+    tick: f64,
+}
+
+impl SurveyPlanner {
+    /// Steps of the pursuit driver within a plan, seconds.
+    pub const TICK: f64 = 0.05;
+
+    /// The survey of `world`, planned from the robot's start, replanned every `period`.
+    pub fn new(world: &World, config: &SurveyConfig, period: f64) -> Result<Self> {
+        let limits = world.robot().limits;
+        Ok(SurveyPlanner {
+            driver: SurveyDriver::new(plan_survey(world, config)?, limits),
+            period,
+            tick: Self::TICK,
+        })
+    }
+}
+
+impl Planner for SurveyPlanner {
+    fn name(&self) -> &'static str {
+        "survey"
+    }
+
+    fn settings(&self) -> serde_json::Value {
+        let c = SurveyConfig::default();
+        serde_json::json!({
+            "row_spacing": c.row_spacing,
+            "clearance": c.clearance,
+            "spin_every": c.spin_every,
+            "steps": self.driver.steps.len(),
+        })
+    }
+
+    fn plan(&mut self, _map: &GaussianMap, start: Pose2) -> Decision {
+        if self.driver.remaining() == 0 {
+            return Decision::Done("survey complete".to_owned());
+        }
+        let n = (self.period / self.tick).round().max(1.0) as usize;
+        let mut states = vec![start];
+        let mut commands = Vec::with_capacity(n);
+        for _ in 0..n {
+            let at = states[states.len() - 1];
+            let u = self.driver.command(at);
+            commands.push(u);
+            states.push(advance(&at, &u, self.tick));
+        }
+        Decision::Go(Plan {
+            commands,
+            period: self.tick,
+            states,
+            target: None,
+            guidance: Vec::new(),
+            score: 0.0,
+            candidates: 1,
+            hold: false,
+        })
     }
 }

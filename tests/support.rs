@@ -36,6 +36,7 @@ pub fn run_config(
         iterations: 10,
         latency: splatloop::episode::Latency::None,
         planner,
+        planner_options: Default::default(),
         sensor: SensorConfig::default(),
         test_views: 20,
         ply_sh_degree: 0,

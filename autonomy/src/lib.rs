@@ -5,6 +5,8 @@
 
 pub mod adam;
 pub mod camera;
+pub mod drive;
+pub mod explore;
 pub mod gaussians;
 pub mod loss;
 pub mod map;

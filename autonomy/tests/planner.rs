@@ -7,7 +7,7 @@ use autonomy::planner::collision::{brute_force, CollisionGrid, CollisionModel, O
 use autonomy::planner::graph::{local_goal, NodeKind, TopologicalGraph};
 use autonomy::planner::information::{CameraMount, ViewCounter};
 use autonomy::planner::search::{search, segment_points, SearchConfig};
-use autonomy::planner::unicycle::{advance, Control, State};
+use autonomy::planner::unicycle::{advance, Pose2, UnicycleCommand};
 use autonomy::planner::{CollisionEngine, PlanFailure, PlannerConfig, Recovery, RtGuidePlanner};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -130,7 +130,7 @@ fn a_planner_on_the_wgpu_engine_plans_as_one_on_the_grid() {
     let mut on_grid = RtGuidePlanner::new(PlannerConfig::default(), CollisionEngine::Grid);
     let mut map = map_of(&wall());
     for step in 0..2 {
-        let robot = State {
+        let robot = Pose2 {
             x: 0.2 * step as f64,
             y: -0.3,
             theta: 0.2,
@@ -172,13 +172,13 @@ fn the_search_goes_around_a_wall_and_ends_nearer_the_goal() {
     let mut grid = CollisionGrid::new(model, 0.05);
     grid.sync(&obstacles);
     let config = SearchConfig::default();
-    let start = State {
+    let start = Pose2 {
         x: 0.0,
         y: 0.0,
         theta: 0.0,
     };
     let goal = [4.0, 0.0];
-    let mut free = |segments: &[Vec<State>]| -> Vec<bool> {
+    let mut free = |segments: &[Vec<Pose2>]| -> Vec<bool> {
         segments
             .iter()
             .map(|seg| {
@@ -215,13 +215,13 @@ fn the_search_goes_around_a_wall_and_ends_nearer_the_goal() {
 #[test]
 fn in_an_empty_map_the_search_reaches_the_goal_the_same_way_every_time() {
     let config = SearchConfig::default();
-    let start = State {
+    let start = Pose2 {
         x: 1.0,
         y: -1.0,
         theta: 0.5,
     };
     let goal = [3.5, 1.5];
-    let mut free = |segments: &[Vec<State>]| vec![true; segments.len()];
+    let mut free = |segments: &[Vec<Pose2>]| vec![true; segments.len()];
     let a = search(&config, start, goal, &mut free);
     let b = search(&config, start, goal, &mut free);
     assert_eq!(a, b);
@@ -236,15 +236,15 @@ fn in_an_empty_map_the_search_reaches_the_goal_the_same_way_every_time() {
 
 #[test]
 fn unicycle_arcs_match_numerical_integration() {
-    let s = State {
+    let s = Pose2 {
         x: 0.3,
         y: -0.2,
         theta: 1.1,
     };
     for u in [
-        Control { v: 0.6, w: 0.9 },
-        Control { v: 0.3, w: -0.45 },
-        Control { v: 0.6, w: 0.0 },
+        UnicycleCommand { v: 0.6, w: 0.9 },
+        UnicycleCommand { v: 0.3, w: -0.45 },
+        UnicycleCommand { v: 0.6, w: 0.0 },
     ] {
         let exact = advance(&s, &u, 1.0);
         let mut n = s;
@@ -282,7 +282,7 @@ fn information_counts_equal_brute_force_and_prefer_high_uncertainty() {
         .collect();
     let counter = ViewCounter::from_classes(&means, &classes, CameraMount::default(), 0.5);
     for k in 0..50 {
-        let s = State {
+        let s = Pose2 {
             x: rng.gen_range(-6.0..6.0),
             y: rng.gen_range(-6.0..6.0),
             theta: rng.gen_range(-3.2..3.2),
@@ -305,12 +305,12 @@ fn information_counts_equal_brute_force_and_prefer_high_uncertainty() {
         classes.push(UncertaintyClass::Low);
     }
     let counter = ViewCounter::from_classes(&means, &classes, CameraMount::default(), 0.5);
-    let east = State {
+    let east = Pose2 {
         x: 0.0,
         y: 0.0,
         theta: 0.0,
     };
-    let west = State {
+    let west = Pose2 {
         x: 0.0,
         y: 0.0,
         theta: std::f64::consts::PI,
@@ -386,7 +386,7 @@ fn map_of(obstacles: &Obstacles) -> GaussianMap {
 #[test]
 fn failures_come_back_as_values_with_a_recovery() {
     let mut planner = RtGuidePlanner::new(PlannerConfig::default(), CollisionEngine::Grid);
-    let origin = State {
+    let origin = Pose2 {
         x: 0.0,
         y: 0.0,
         theta: 0.0,
@@ -438,7 +438,7 @@ fn failures_come_back_as_values_with_a_recovery() {
     assert_eq!(plan.states.len(), plan.controls.len() + 1);
     // Plans from new places grow the graph; earlier viewpoints must not confuse the indices.
     for x in [1.2, -1.3, -0.2] {
-        let moved = State {
+        let moved = Pose2 {
             x,
             y: -1.0,
             theta: 0.0,
@@ -477,7 +477,7 @@ fn viewpoints_behind_a_wall_are_not_targets() {
         uncertainty.push(1.0);
     }
     let map = GaussianMap::new(g, uncertainty);
-    let origin = State {
+    let origin = Pose2 {
         x: 0.0,
         y: 0.0,
         theta: 0.0,
@@ -592,7 +592,7 @@ fn incremental_upkeep_equals_a_fresh_pass_after_moves_growth_and_prunes() {
         let fresh_counter =
             ViewCounter::from_classes(&map.gaussians.means, &classes, CameraMount::default(), 1.0);
         for k in 0..40 {
-            let s = State {
+            let s = Pose2 {
                 x: edit_rng.gen_range(-6.0..6.0),
                 y: edit_rng.gen_range(-6.0..6.0),
                 theta: edit_rng.gen_range(-3.2..3.2),

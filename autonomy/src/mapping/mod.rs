@@ -60,6 +60,30 @@ pub struct MapperConfig {
     pub prune_radius_fraction: f32,
     /// Adam's learning rates.
     pub rates: LearningRates,
+    /// How a Gaussian's displacement becomes its uncertainty.
+    pub uncertainty: UncertaintyNorm,
+}
+
+/// RT-GuIDE's uncertainty of a Gaussian from its displacement d in one mapping step: the
+/// L2 norm (the paper's choice), or its square (RTGuIDE-sq, eq 7 as derived; Table II).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum UncertaintyNorm {
+    /// |d|.
+    #[default]
+    L2,
+    /// |d|^2.
+    Sq,
+}
+
+impl UncertaintyNorm {
+    /// The uncertainty of a displacement of squared length `squared`.
+    pub fn of_squared(self, squared: f32) -> f32 {
+        match self {
+            UncertaintyNorm::L2 => squared.sqrt(),
+            UncertaintyNorm::Sq => squared,
+        }
+    }
 }
 
 impl Default for MapperConfig {
@@ -73,6 +97,7 @@ impl Default for MapperConfig {
             prune_opacity: 0.005,
             prune_radius_fraction: 0.1,
             rates: LearningRates::default(),
+            uncertainty: UncertaintyNorm::L2,
         }
     }
 }
@@ -320,7 +345,10 @@ impl Mapper {
             if *moved {
                 let (a, b) = (before[i], self.map.gaussians.means[i]);
                 let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-                self.map.uncertainty[i] = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                self.map.uncertainty[i] = self
+                    .config
+                    .uncertainty
+                    .of_squared(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
             }
         }
 

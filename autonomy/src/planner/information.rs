@@ -10,7 +10,7 @@
 
 use super::lattice::{CellPoints, PointLattice, OVERFLOW};
 use super::mirror::{Change, Record};
-use super::unicycle::State;
+use super::unicycle::Pose2;
 use crate::camera::Intrinsics;
 use crate::map::{UncertaintyClass, UncertaintyStats};
 
@@ -39,6 +39,24 @@ impl Default for CameraMount {
     }
 }
 
+impl CameraMount {
+    /// The level camera of the robot at `s`: optical x to the robot's right, y down, z ahead.
+    pub fn camera_at(&self, s: &Pose2) -> crate::camera::PinholeCamera {
+        let (c, sn) = (s.theta.cos(), s.theta.sin());
+        let rotation = crate::math::Matrix3::new(sn, 0.0, c, -c, 0.0, sn, 0.0, -1.0, 0.0);
+        let rotation = crate::math::UnitQuaternion::from_matrix(&rotation);
+        let centre = crate::math::Translation3::new(
+            s.x + self.forward * c,
+            s.y + self.forward * sn,
+            self.height,
+        );
+        crate::camera::PinholeCamera {
+            intrinsics: self.intrinsics,
+            world_from_camera: crate::math::Isometry3::from_parts(centre, rotation),
+        }
+    }
+}
+
 /// A camera pose reduced to what the frustum test needs.
 #[derive(Debug, Clone, Copy)]
 struct View {
@@ -52,7 +70,7 @@ struct View {
 }
 
 impl View {
-    fn new(mount: &CameraMount, s: &State) -> Self {
+    fn new(mount: &CameraMount, s: &Pose2) -> Self {
         let k = &mount.intrinsics;
         let (c, sn) = (s.theta.cos(), s.theta.sin());
         View {
@@ -312,7 +330,7 @@ impl ViewCounter {
     }
 
     /// (#high, #low) in view from robot state `s`.
-    pub fn count(&self, s: &State) -> (u32, u32) {
+    pub fn count(&self, s: &Pose2) -> (u32, u32) {
         let view = View::new(&self.mount, s);
         let (mut high, mut low) = count_seen(
             self.lattice.overflow(),
@@ -417,14 +435,14 @@ impl ViewCounter {
     }
 
     /// xi of state `s`.
-    pub fn information(&self, s: &State) -> f64 {
+    pub fn information(&self, s: &Pose2) -> f64 {
         let (h, l) = self.count(s);
         f64::from(h) - self.low_weight * f64::from(l)
     }
 
     /// (#high, #low) in view by checking every filed Gaussian against the thresholds: the
     /// reference.
-    pub fn count_brute_force(&self, s: &State) -> (u32, u32) {
+    pub fn count_brute_force(&self, s: &Pose2) -> (u32, u32) {
         let view = View::new(&self.mount, s);
         let (mut high, mut low) = (0, 0);
         for cell in self.lattice.iter() {

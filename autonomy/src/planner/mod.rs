@@ -15,15 +15,13 @@ pub mod tally;
 pub mod unicycle;
 
 use crate::map::{ClassifyOptions, GaussianMap};
-use collision::{CollisionGrid, CollisionModel, Obstacles};
-use gpu_collision::GpuCollision;
+use collision::CollisionModel;
 use graph::{local_goal, TopologicalGraph, KEEP_RADIUS};
 use information::{CameraMount, ViewCounter};
-use mirror::{Change, MapMirror};
-use search::{search, SearchConfig};
+use search::SearchConfig;
 use std::time::Instant;
 use tally::Tally;
-use unicycle::{Control, State};
+use unicycle::{Pose2, UnicycleCommand};
 
 /// Spacing of the collision samples along a viewpoint's edge, metres.
 const EDGE_STEP: f64 = 0.1;
@@ -84,65 +82,16 @@ impl Default for PlannerConfig {
     }
 }
 
-/// Why no plan came back, and what the host can do about it.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum PlanFailure {
-    /// Nothing mapped yet (or only floor).
-    #[error("the map has no Gaussians above the ground plane yet; turn in place to look around")]
-    EmptyMap,
-    /// The robot's own position is in collision with the map.
-    #[error("the robot's position collides with the map (an obstacle within r_robot + 3 r); back off toward heading {away:.2} rad and replan")]
-    StartInCollision {
-        /// Heading (radians) pointing away from the colliding Gaussians: where to back off.
-        away: f64,
-    },
-    /// Every primitive from the start collides.
-    #[error("every motion primitive from here collides; turn in place to look around")]
-    NoCollisionFreeCandidate,
-    /// No viewpoint is reachable in the topological graph.
-    #[error(
-        "no viewpoint is reachable through the topological graph; turn in place to look around"
-    )]
-    GoalUnreachable,
-}
+pub use crate::explore::executor::{CollisionEngine, Executor, ExecutorConfig};
+pub use crate::explore::{PlanFailure, Recovery};
 
-/// What the host should do after a failure.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Recovery {
-    /// Spin on the spot to see more.
-    TurnInPlace,
-    /// Reverse a little, then replan.
-    BackOff,
-}
-
-impl PlanFailure {
-    /// The recovery the planner suggests.
-    pub fn recovery(&self) -> Recovery {
-        match self {
-            PlanFailure::StartInCollision { .. } => Recovery::BackOff,
-            _ => Recovery::TurnInPlace,
-        }
-    }
-}
-
-/// How the planner checks collisions.
-#[derive(Debug)]
-pub enum CollisionEngine {
-    /// Every point against every Gaussian (the reference; slow).
-    BruteForce,
-    /// The incremental hash grid.
-    Grid,
-    /// Every point against every Gaussian on a GPU.
-    Gpu(Box<GpuCollision>),
-}
-
-/// A plan: the controls to apply, one per second.
+/// RT-GuIDE's plan with its diagnostics: the controls to apply, one per second.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Plan {
+pub struct RtGuidePlan {
     /// (v, w) per segment.
-    pub controls: Vec<Control>,
+    pub controls: Vec<UnicycleCommand>,
     /// Start state and the end state of each segment.
-    pub states: Vec<State>,
+    pub states: Vec<Pose2>,
     /// xi summed over the segment end states.
     pub information: f64,
     /// The guidance path (robot, then graph nodes), metres.
@@ -162,15 +111,9 @@ pub struct Plan {
 pub struct RtGuidePlanner {
     config: PlannerConfig,
     graph: TopologicalGraph,
-    mirror: MapMirror,
-    changes: Vec<Change>,
-    grid: CollisionGrid,
+    executor: Executor,
     tally: Tally,
     counter: ViewCounter,
-    engine: CollisionEngine,
-    /// The brute-force and GPU engines' list of every obstacle, refilled each plan (reused:
-    /// refilling is cheaper than allocating millions of entries anew).
-    obstacles: Obstacles,
     /// The viewpoint the last plan headed for: kept while it scores at least half the best,
     /// so two similar viewpoints do not make the robot dither between them.
     target: Option<[f64; 2]>,
@@ -179,26 +122,27 @@ pub struct RtGuidePlanner {
     visited: Vec<[f64; 2]>,
 }
 
-fn point(model: &CollisionModel, s: &State) -> [f32; 3] {
-    [s.x as f32, s.y as f32, model.centre_height]
-}
-
 impl RtGuidePlanner {
     /// A planner with an empty graph.
     pub fn new(config: PlannerConfig, engine: CollisionEngine) -> Self {
-        let grid = CollisionGrid::new(config.collision, config.grid_radius_cap);
+        let executor = Executor::new(
+            ExecutorConfig {
+                search: config.search.clone(),
+                collision: config.collision,
+                classify: config.classify,
+                grid_radius_cap: config.grid_radius_cap,
+                limits: crate::drive::DriveLimits::default(),
+            },
+            engine,
+        );
         let tally = Tally::new(config.region_size);
         let counter = ViewCounter::new(config.mount, config.information_cell);
         RtGuidePlanner {
             config,
             graph: TopologicalGraph::default(),
-            mirror: MapMirror::new(),
-            changes: Vec::new(),
-            grid,
+            executor,
             tally,
             counter,
-            engine,
-            obstacles: Obstacles::default(),
             target: None,
             target_plans: 0,
             visited: Vec::new(),
@@ -211,59 +155,28 @@ impl RtGuidePlanner {
     }
 
     /// Plans from `robot` over `map`.
-    pub fn plan(&mut self, map: &GaussianMap, robot: State) -> Result<Plan, PlanFailure> {
+    pub fn plan(&mut self, map: &GaussianMap, robot: Pose2) -> Result<RtGuidePlan, PlanFailure> {
         let t0 = Instant::now();
         self.update(map);
-        let mut obstacles = std::mem::take(&mut self.obstacles);
-        if !matches!(self.engine, CollisionEngine::Grid) {
-            obstacles.refill(&map.gaussians, &self.config.classify);
-        }
-        let result = self.plan_with(robot, &obstacles, t0);
-        self.obstacles = obstacles;
-        result
+        self.plan_with(robot, t0)
     }
 
-    /// Brings the copy of the map and everything derived from it up to date, touching only
-    /// the Gaussians that changed.
+    /// Brings the executor's copy of the map and everything derived from it up to date,
+    /// touching only the Gaussians that changed.
     fn update(&mut self, map: &GaussianMap) {
-        self.mirror
-            .sync(map, &self.config.classify, &mut self.changes);
-        // The grid is kept whatever the engine, so a failing GPU can hand over at once.
-        self.grid.apply(&self.changes);
-        self.tally.apply(&self.changes);
-        self.counter.apply(&self.changes);
+        let changes = self.executor.sync(map);
+        self.tally.apply(changes);
+        self.counter.apply(changes);
         self.counter.set_stats(&self.tally.stats());
     }
 
-    fn plan_with(
-        &mut self,
-        robot: State,
-        obstacles: &Obstacles,
-        t0: Instant,
-    ) -> Result<Plan, PlanFailure> {
+    fn plan_with(&mut self, robot: Pose2, t0: Instant) -> Result<RtGuidePlan, PlanFailure> {
         let cfg = &self.config;
         if self.tally.count() == 0 {
             return Err(PlanFailure::EmptyMap);
         }
-        if let CollisionEngine::Gpu(gpu) = &mut self.engine {
-            if let Err(e) = gpu.upload(obstacles) {
-                tracing::warn!("GPU collision upload failed ({e}); using the grid");
-                self.engine = CollisionEngine::Grid;
-            }
-        }
         let model = cfg.collision;
-        let start_point = point(&model, &robot);
-        if self.collisions(obstacles, &[start_point])[0] {
-            // Away from the colliding Gaussians: the sum of their unit offsets.
-            let (mut ax, mut ay) = (0.0f64, 0.0f64);
-            for m in self.grid.colliding_means(start_point) {
-                let (dx, dy) = (robot.x - f64::from(m[0]), robot.y - f64::from(m[1]));
-                let n = dx.hypot(dy).max(1e-6);
-                ax += dx / n;
-                ay += dy / n;
-            }
-            return Err(PlanFailure::StartInCollision { away: ay.atan2(ax) });
-        }
+        self.executor.check_start(&robot)?;
         // A reached target is remembered: looking at a region makes its Gaussians move, so its
         // utility does not fall, and without this the robot shuttles between two viewpoints.
         if let Some(t) = self.target {
@@ -294,7 +207,7 @@ impl RtGuidePlanner {
                 .iter()
                 .map(|(p, _)| [p[0] as f32, p[1] as f32, model.centre_height])
                 .collect();
-            let hits = self.collisions(obstacles, &points);
+            let hits = self.executor.collisions(&points);
             for ((p, heading), hit) in candidates.into_iter().zip(hits) {
                 // A viewpoint the robot stands at is reached, not a goal.
                 let near = (p[0] - robot.x).hypot(p[1] - robot.y) < cfg.min_viewpoint_distance;
@@ -336,19 +249,8 @@ impl RtGuidePlanner {
                 [robot.x, robot.y]
             };
             let to = self.graph.nodes[best].position;
-            let steps = ((to[0] - from[0]).hypot(to[1] - from[1]) / EDGE_STEP).ceil() as usize;
-            let samples: Vec<[f32; 3]> = (1..=steps)
-                .map(|k| {
-                    let t = k as f64 / steps as f64;
-                    [
-                        (from[0] + t * (to[0] - from[0])) as f32,
-                        (from[1] + t * (to[1] - from[1])) as f32,
-                        model.centre_height,
-                    ]
-                })
-                .collect();
             checked += 1;
-            if !self.collisions(obstacles, &samples).contains(&true) {
+            if self.executor.segment_free(from, to, EDGE_STEP) {
                 break (best, path);
             }
             if checked >= MAX_EDGE_CHECKS {
@@ -366,27 +268,7 @@ impl RtGuidePlanner {
         let goal = local_goal(&guidance, cfg.search.horizon).unwrap_or([robot.x, robot.y]);
 
         let t1 = Instant::now();
-        let trajectories = {
-            let mut free = |segments: &[Vec<State>]| -> Vec<bool> {
-                let mut points = Vec::new();
-                let mut owner = Vec::new();
-                for (k, seg) in segments.iter().enumerate() {
-                    for s in seg {
-                        points.push(point(&model, s));
-                        owner.push(k);
-                    }
-                }
-                let hits = self.collisions(obstacles, &points);
-                let mut ok = vec![true; segments.len()];
-                for (hit, k) in hits.into_iter().zip(owner) {
-                    if hit {
-                        ok[k] = false;
-                    }
-                }
-                ok
-            };
-            search(&cfg.search, robot, goal, &mut free)
-        };
+        let trajectories = self.executor.candidates(robot, goal);
         if trajectories.is_empty() {
             return Err(PlanFailure::NoCollisionFreeCandidate);
         }
@@ -405,7 +287,7 @@ impl RtGuidePlanner {
             .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cost.total_cmp(&a.1.cost)))
             .map(|(xi, t)| (*xi, (*t).clone()))
             .ok_or(PlanFailure::NoCollisionFreeCandidate)?;
-        Ok(Plan {
+        Ok(RtGuidePlan {
             controls: best.controls,
             states: best.states,
             information,
@@ -419,19 +301,50 @@ impl RtGuidePlanner {
             ],
         })
     }
+}
 
-    fn collisions(&self, obstacles: &Obstacles, points: &[[f32; 3]]) -> Vec<bool> {
-        match &self.engine {
-            CollisionEngine::BruteForce => {
-                collision::brute_force(&self.config.collision, obstacles, points)
+impl crate::explore::Planner for RtGuidePlanner {
+    fn name(&self) -> &'static str {
+        "rtguide"
+    }
+
+    fn settings(&self) -> serde_json::Value {
+        let c = &self.config;
+        serde_json::json!({
+            "region_size": c.region_size,
+            "viewpoints_per_region": c.viewpoints_per_region,
+            "min_viewpoint_distance": c.min_viewpoint_distance,
+            "horizon": c.search.horizon,
+            "candidates": c.search.candidates,
+            "information_cell": c.information_cell,
+        })
+    }
+
+    fn plan(&mut self, map: &GaussianMap, start: Pose2) -> crate::explore::Decision {
+        use crate::explore::{Decision, Plan};
+        match RtGuidePlanner::plan(self, map, start) {
+            Ok(p) => {
+                tracing::debug!(
+                    "at ({:.2}, {:.2}): goal ({:.2}, {:.2}), guidance {:.2?}, {} candidates, xi {}, controls {:?}",
+                    start.x, start.y, p.local_goal[0], p.local_goal[1], p.guidance, p.candidates, p.information, p.controls
+                );
+                let target = p.guidance.last().map(|g| Pose2 {
+                    x: g[0],
+                    y: g[1],
+                    theta: start.theta,
+                });
+                Decision::Go(Plan {
+                    commands: p.controls,
+                    period: self.config.search.primitives.duration,
+                    states: p.states,
+                    target,
+                    guidance: p.guidance,
+                    score: p.information,
+                    candidates: p.candidates,
+                    hold: false,
+                })
             }
-            CollisionEngine::Grid => self.grid.check(points),
-            CollisionEngine::Gpu(gpu) => gpu
-                .check(&self.config.collision, obstacles, points)
-                .unwrap_or_else(|e| {
-                    tracing::warn!("GPU collision check failed ({e}); using brute force");
-                    collision::brute_force(&self.config.collision, obstacles, points)
-                }),
+            Err(f) => Decision::Fail(f),
         }
     }
 }

@@ -2,7 +2,7 @@
 //! integral u^T u, heuristic |p_goal - p| / v_max, every sample point collision-checked;
 //! the best N_traj trajectories come back as candidates.
 
-use super::unicycle::{advance, Control, Primitives, State};
+use super::unicycle::{advance, Pose2, Primitives, UnicycleCommand};
 use crate::math::TotalF64;
 use std::collections::{BinaryHeap, HashSet};
 
@@ -46,9 +46,9 @@ impl Default for SearchConfig {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Trajectory {
     /// One control per segment.
-    pub controls: Vec<Control>,
+    pub controls: Vec<UnicycleCommand>,
     /// Start state, then the state at the end of each segment.
-    pub states: Vec<State>,
+    pub states: Vec<Pose2>,
     /// lambda_t tau + integral u^T u.
     pub cost: f64,
     /// Straight-line distance from the end to the goal, metres.
@@ -56,11 +56,11 @@ pub struct Trajectory {
 }
 
 struct Node {
-    state: State,
+    state: Pose2,
     cost: f64,
     length: f64,
     parent: Option<usize>,
-    control: Option<Control>,
+    control: Option<UnicycleCommand>,
     segments: usize,
 }
 
@@ -69,7 +69,7 @@ struct Node {
 type Open = std::cmp::Reverse<(TotalF64, usize)>;
 
 /// Sample points of one segment (the end included, the start not) at the horizon's spacing.
-pub fn segment_points(s: &State, u: &Control, duration: f64, spacing: f64) -> Vec<State> {
+pub fn segment_points(s: &Pose2, u: &UnicycleCommand, duration: f64, spacing: f64) -> Vec<Pose2> {
     let length = u.v.abs() * duration;
     let n = ((length / spacing).ceil() as usize).max(1);
     (1..=n)
@@ -77,7 +77,7 @@ pub fn segment_points(s: &State, u: &Control, duration: f64, spacing: f64) -> Ve
         .collect()
 }
 
-fn key(s: &State) -> (i64, i64, i64) {
+fn key(s: &Pose2) -> (i64, i64, i64) {
     let a = s.theta.rem_euclid(std::f64::consts::TAU);
     (
         (s.x / 0.1).round() as i64,
@@ -92,9 +92,9 @@ fn key(s: &State) -> (i64, i64, i64) {
 /// when no primitive from the start is collision-free.
 pub fn search(
     config: &SearchConfig,
-    start: State,
+    start: Pose2,
     goal: [f64; 2],
-    free: &mut dyn FnMut(&[Vec<State>]) -> Vec<bool>,
+    free: &mut dyn FnMut(&[Vec<Pose2>]) -> Vec<bool>,
 ) -> Vec<Trajectory> {
     let v_max = config
         .primitives
@@ -102,7 +102,7 @@ pub fn search(
         .iter()
         .fold(0.0f64, |m, u| m.max(u.v.abs()))
         .max(1e-6);
-    let h = |s: &State| ((goal[0] - s.x).powi(2) + (goal[1] - s.y).powi(2)).sqrt() / v_max;
+    let h = |s: &Pose2| ((goal[0] - s.x).powi(2) + (goal[1] - s.y).powi(2)).sqrt() / v_max;
     let spacing = config.horizon / (config.samples_per_horizon.max(2) - 1) as f64;
     let mut nodes = vec![Node {
         state: start,
@@ -134,7 +134,7 @@ pub fn search(
         if expansions > config.max_expansions {
             break;
         }
-        let segments_samples: Vec<Vec<State>> = config
+        let segments_samples: Vec<Vec<Pose2>> = config
             .primitives
             .controls
             .iter()
@@ -185,7 +185,11 @@ pub fn search(
             let mut states = Vec::new();
             let mut at = end;
             while let Some(p) = nodes[at].parent {
-                controls.push(nodes[at].control.unwrap_or(Control { v: 0.0, w: 0.0 }));
+                controls.push(
+                    nodes[at]
+                        .control
+                        .unwrap_or(UnicycleCommand { v: 0.0, w: 0.0 }),
+                );
                 states.push(nodes[at].state);
                 at = p;
             }

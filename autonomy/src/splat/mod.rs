@@ -105,6 +105,14 @@ impl Images {
     }
 }
 
+/// Parameters per Gaussian in the diagonal Fisher information: mean x, y, z, log-radius,
+/// logit-opacity, colour r, g, b.
+pub const FISHER_PARAMETERS: usize = 8;
+
+/// The diagonal Fisher information of one view, per Gaussian (indexed like the Gaussians; zero
+/// for those the view does not see).
+pub type FisherDiagonal = Vec<[f32; FISHER_PARAMETERS]>;
+
 /// Gradients of the loss with respect to each output image, same layout as [`Images`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct ImageGradients {

@@ -2,7 +2,7 @@
 //! cleverness: the reference the engines are tested against, and the function finite
 //! differences are taken of.
 
-use super::{validate_camera, ImageGradients, Images, RenderError};
+use super::{validate_camera, ImageGradients, Images, RenderError, FISHER_PARAMETERS};
 use super::{MAX_ALPHA, MIN_ALPHA, MIN_TRANSMITTANCE, NEAR_PLANE};
 use crate::camera::PinholeCamera;
 use crate::gaussians::{Gaussians, Gradients};
@@ -228,4 +228,72 @@ pub fn backward(
     }
     gradients.touched = (0..n as u32).filter(|&i| touched[i as usize]).collect();
     Ok(gradients)
+}
+
+/// The diagonal Fisher information of colour and depth (AG-SLAM eqs 7-9): per Gaussian and
+/// parameter (mean x, y, z, log-radius, logit-opacity, colour r, g, b), the sum over pixels of
+/// the squared per-pixel gradient of the pixel's colour and depth channels summed (an
+/// upstream gradient of 1 on each). Each pixel is squared on its own.
+pub fn fisher(
+    gaussians: &Gaussians,
+    camera: &PinholeCamera,
+) -> Result<Vec<[f64; FISHER_PARAMETERS]>, RenderError> {
+    let (projected, w, h) = prepare(gaussians, camera)?;
+    let k = &camera.intrinsics;
+    let rotation = camera.world_from_camera.rotation;
+    let mut h_out = vec![[0.0f64; FISHER_PARAMETERS]; gaussians.len()];
+    for y in 0..h {
+        for x in 0..w {
+            let (_, contributors, mut t) = composite_pixel(&projected, x as f64, y as f64);
+            let mut behind = [0.0f64; 5];
+            let grads = [1.0, 1.0, 1.0, 1.0, 0.0];
+            for &slot in contributors.iter().rev() {
+                let g = &projected[slot];
+                let (a, clamped) = alpha(g, x as f64, y as f64);
+                t /= 1.0 - a;
+                let weight = a * t;
+                let values = [g.colour[0], g.colour[1], g.colour[2], g.depth, 1.0];
+                let mut d_alpha = 0.0;
+                for c in 0..5 {
+                    d_alpha += grads[c] * t * (values[c] - behind[c]);
+                    behind[c] = a * values[c] + (1.0 - a) * behind[c];
+                }
+                let mut s = [0.0f64; 8];
+                for c in 0..3 {
+                    s[4 + c] = grads[c] * weight;
+                }
+                s[7] = grads[3] * weight;
+                if !clamped {
+                    let (dx, dy) = (x as f64 - g.u, y as f64 - g.v);
+                    let r2 = g.radius * g.radius;
+                    let d_q = -0.5 * a * d_alpha;
+                    s[0] = d_q * (-2.0 * dx / r2);
+                    s[1] = d_q * (-2.0 * dy / r2);
+                    s[2] = d_q * (-2.0 * (dx * dx + dy * dy) / (r2 * g.radius));
+                    s[3] = d_alpha * a / g.opacity;
+                }
+                let (px, py, pz) = (g.camera_point.x, g.camera_point.y, g.camera_point.z);
+                let radius = g.radius * pz / k.fx;
+                let d_depth = s[7]
+                    - s[0] * k.fx * px / (pz * pz)
+                    - s[1] * k.fy * py / (pz * pz)
+                    - s[2] * k.fx * radius / (pz * pz);
+                let d_world = rotation * Vector3::new(s[0] * k.fx / pz, s[1] * k.fy / pz, d_depth);
+                let per_pixel = [
+                    d_world.x,
+                    d_world.y,
+                    d_world.z,
+                    s[2] * k.fx / pz * radius,
+                    s[3] * g.opacity * (1.0 - g.opacity),
+                    s[4],
+                    s[5],
+                    s[6],
+                ];
+                for (acc, d) in h_out[g.index].iter_mut().zip(per_pixel) {
+                    *acc += d * d;
+                }
+            }
+        }
+    }
+    Ok(h_out)
 }

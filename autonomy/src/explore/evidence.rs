@@ -1,0 +1,384 @@
+//! The 2D evidence grid of frontier exploration (AG-SLAM's FBE baseline): every depth ray adds
+//! free evidence to the cells it crosses below the height band's top and occupied evidence at
+//! its end when the end lies in the band; the map's Gaussian means add obstacle evidence. A
+//! cell's class is the argmax of its evidence over {unknown, occupied, free}. The grid grows
+//! as the robot sees further, so no world size is assumed.
+
+use crate::camera::PinholeCamera;
+use crate::math::Point3;
+
+/// Settings of the grid (AG-SLAM's code's values).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct EvidenceConfig {
+    /// Cell side, metres.
+    pub cell: f64,
+    /// Lowest height of an obstacle, metres (below it is floor).
+    pub min_height: f64,
+    /// Highest height that matters to the robot, metres.
+    pub max_height: f64,
+    /// Rays count up to this range, metres.
+    pub max_range: f64,
+    /// One ray per `pixel_stride` pixels in each direction.
+    pub pixel_stride: usize,
+    /// More Gaussian means in a cell than this remove it from free space...
+    pub gaussians_unfree: u32,
+    /// ... and more than this mark it occupied.
+    pub gaussians_occupied: u32,
+}
+
+impl Default for EvidenceConfig {
+    fn default() -> Self {
+        EvidenceConfig {
+            cell: 0.05,
+            min_height: 0.1,
+            max_height: 1.3,
+            max_range: 7.0,
+            pixel_stride: 4,
+            gaussians_unfree: 25,
+            gaussians_occupied: 50,
+        }
+    }
+}
+
+/// What a cell is believed to be.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CellClass {
+    /// No evidence yet.
+    Unknown,
+    /// More free than occupied evidence.
+    Free,
+    /// Occupied evidence wins (ties count as occupied: a wall is safer than a hole).
+    Occupied,
+}
+
+/// A grid of cell classes, as frontier detection and path search read it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ClassGrid {
+    /// Cells along x and y.
+    pub size: [usize; 2],
+    /// World position of cell (0, 0)'s lower corner, metres.
+    pub origin: [f64; 2],
+    /// Cell side, metres.
+    pub cell: f64,
+    /// Row-major classes (index = y * size[0] + x).
+    pub classes: Vec<CellClass>,
+}
+
+impl ClassGrid {
+    /// A grid of one class.
+    pub fn filled(size: [usize; 2], origin: [f64; 2], cell: f64, class: CellClass) -> Self {
+        ClassGrid {
+            size,
+            origin,
+            cell,
+            classes: vec![class; size[0] * size[1]],
+        }
+    }
+
+    /// The cell holding a world point, if inside.
+    pub fn cell_of(&self, p: [f64; 2]) -> Option<usize> {
+        let x = ((p[0] - self.origin[0]) / self.cell).floor();
+        let y = ((p[1] - self.origin[1]) / self.cell).floor();
+        (x >= 0.0 && y >= 0.0 && (x as usize) < self.size[0] && (y as usize) < self.size[1])
+            .then(|| y as usize * self.size[0] + x as usize)
+    }
+
+    /// A cell's centre in the world.
+    pub fn centre(&self, c: usize) -> [f64; 2] {
+        let (x, y) = (c % self.size[0], c / self.size[0]);
+        [
+            self.origin[0] + (x as f64 + 0.5) * self.cell,
+            self.origin[1] + (y as f64 + 0.5) * self.cell,
+        ]
+    }
+
+    /// The up-to-8 neighbours of a cell.
+    pub fn neighbours8(&self, c: usize) -> impl Iterator<Item = usize> + '_ {
+        let [w, h] = self.size;
+        let (x, y) = ((c % w) as i64, (c / w) as i64);
+        (-1i64..=1)
+            .flat_map(move |dy| (-1i64..=1).map(move |dx| (dx, dy)))
+            .filter(|&(dx, dy)| dx != 0 || dy != 0)
+            .filter_map(move |(dx, dy)| {
+                let (nx, ny) = (x + dx, y + dy);
+                (nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64)
+                    .then(|| ny as usize * w + nx as usize)
+            })
+    }
+
+    /// Cells in total.
+    pub fn len(&self) -> usize {
+        self.classes.len()
+    }
+
+    /// Whether the grid has no cells.
+    pub fn is_empty(&self) -> bool {
+        self.classes.is_empty()
+    }
+}
+
+/// The accumulated evidence.
+#[derive(Debug, Clone)]
+pub struct EvidenceGrid {
+    config: EvidenceConfig,
+    /// Cell index of the grid's (0, 0) cell in the world lattice.
+    origin: [i64; 2],
+    size: [usize; 2],
+    free: Vec<u32>,
+    occupied: Vec<u32>,
+    gaussians: Vec<u32>,
+}
+
+/// Cells added on each side whenever the grid grows.
+const GROW_MARGIN: i64 = 80;
+
+impl EvidenceGrid {
+    /// An empty grid.
+    pub fn new(config: EvidenceConfig) -> Self {
+        EvidenceGrid {
+            config,
+            origin: [0, 0],
+            size: [0, 0],
+            free: Vec::new(),
+            occupied: Vec::new(),
+            gaussians: Vec::new(),
+        }
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &EvidenceConfig {
+        &self.config
+    }
+
+    fn lattice(&self, p: [f64; 2]) -> [i64; 2] {
+        [
+            (p[0] / self.config.cell).floor() as i64,
+            (p[1] / self.config.cell).floor() as i64,
+        ]
+    }
+
+    /// Grows the grid to hold lattice cells `lo..=hi`.
+    fn reserve(&mut self, lo: [i64; 2], hi: [i64; 2]) {
+        let [w, h] = [self.size[0] as i64, self.size[1] as i64];
+        let inside = w > 0
+            && lo[0] >= self.origin[0]
+            && lo[1] >= self.origin[1]
+            && hi[0] < self.origin[0] + w
+            && hi[1] < self.origin[1] + h;
+        if inside {
+            return;
+        }
+        let (new_lo, new_hi) = if w == 0 {
+            (
+                [lo[0] - GROW_MARGIN, lo[1] - GROW_MARGIN],
+                [hi[0] + GROW_MARGIN, hi[1] + GROW_MARGIN],
+            )
+        } else {
+            (
+                [
+                    self.origin[0].min(lo[0] - GROW_MARGIN),
+                    self.origin[1].min(lo[1] - GROW_MARGIN),
+                ],
+                [
+                    (self.origin[0] + w - 1).max(hi[0] + GROW_MARGIN),
+                    (self.origin[1] + h - 1).max(hi[1] + GROW_MARGIN),
+                ],
+            )
+        };
+        let size = [
+            (new_hi[0] - new_lo[0] + 1) as usize,
+            (new_hi[1] - new_lo[1] + 1) as usize,
+        ];
+        let grown = |old: &[u32]| {
+            let mut v = vec![0u32; size[0] * size[1]];
+            for y in 0..self.size[1] {
+                let ny = (self.origin[1] + y as i64 - new_lo[1]) as usize;
+                let nx = (self.origin[0] - new_lo[0]) as usize;
+                v[ny * size[0] + nx..ny * size[0] + nx + self.size[0]]
+                    .copy_from_slice(&old[y * self.size[0]..(y + 1) * self.size[0]]);
+            }
+            v
+        };
+        self.free = grown(&self.free);
+        self.occupied = grown(&self.occupied);
+        self.gaussians = grown(&self.gaussians);
+        self.origin = new_lo;
+        self.size = size;
+    }
+
+    fn index(&self, l: [i64; 2]) -> usize {
+        (l[1] - self.origin[1]) as usize * self.size[0] + (l[0] - self.origin[0]) as usize
+    }
+
+    /// Adds one depth frame: a ray per `pixel_stride` pixels.
+    pub fn integrate(&mut self, depth: &[f32], camera: &PinholeCamera) {
+        let k = &camera.intrinsics;
+        let (w, h) = (k.width as usize, k.height as usize);
+        if depth.len() != w * h {
+            return;
+        }
+        let origin = Point3::from(camera.world_from_camera.translation.vector);
+        let stride = self.config.pixel_stride.max(1);
+        for v in (stride / 2..h).step_by(stride) {
+            for u in (stride / 2..w).step_by(stride) {
+                let d = f64::from(depth[v * w + u]);
+                if !(d.is_finite() && d > 0.0) {
+                    continue;
+                }
+                let end = camera.back_project_to_world(u as f64, v as f64, d);
+                self.integrate_ray(origin, end);
+            }
+        }
+    }
+
+    /// One ray from `origin` to the surface point `end`: free evidence along it while it is
+    /// below the band's top and within range, occupied evidence at its end when that lies in
+    /// the band and within range.
+    pub fn integrate_ray(&mut self, origin: Point3, end: Point3) {
+        let c = &self.config;
+        let length = (end - origin).norm();
+        if !(length.is_finite() && length > 0.0) {
+            return;
+        }
+        let mut t_end = (c.max_range / length).min(1.0);
+        let dz = end.z - origin.z;
+        if origin.z > c.max_height {
+            return;
+        }
+        if end.z > c.max_height && dz > 0.0 {
+            t_end = t_end.min((c.max_height - origin.z) / dz);
+        }
+        let hit = t_end >= 1.0 && end.z >= c.min_height && end.z <= c.max_height;
+        let a = [origin.x, origin.y];
+        let b = [
+            origin.x + t_end * (end.x - origin.x),
+            origin.y + t_end * (end.y - origin.y),
+        ];
+        let (la, lb) = (self.lattice(a), self.lattice(b));
+        self.reserve(
+            [la[0].min(lb[0]), la[1].min(lb[1])],
+            [la[0].max(lb[0]), la[1].max(lb[1])],
+        );
+        let end_cell = self.index(lb);
+        let mut cells = Vec::new();
+        traverse(a, b, self.config.cell, &mut cells);
+        for l in cells {
+            let i = self.index(l);
+            if !(hit && i == end_cell) {
+                self.free[i] += 1;
+            }
+        }
+        if hit {
+            self.occupied[end_cell] += 1;
+        }
+    }
+
+    /// Marks the robot's footprint free: the camera never sees the floor under the robot, yet
+    /// the robot stands there.
+    pub fn mark_free_disc(&mut self, centre: [f64; 2], radius: f64) {
+        let lo = self.lattice([centre[0] - radius, centre[1] - radius]);
+        let hi = self.lattice([centre[0] + radius, centre[1] + radius]);
+        self.reserve(lo, hi);
+        let cell = self.config.cell;
+        for y in lo[1]..=hi[1] {
+            for x in lo[0]..=hi[0] {
+                let p = [(x as f64 + 0.5) * cell, (y as f64 + 0.5) * cell];
+                if (p[0] - centre[0]).hypot(p[1] - centre[1]) <= radius {
+                    let i = self.index([x, y]);
+                    self.free[i] = self.free[i].max(self.occupied[i] + 1);
+                }
+            }
+        }
+    }
+
+    /// Recounts the Gaussian means per cell (those within the height band).
+    pub fn set_gaussians(&mut self, means: &[[f32; 3]]) {
+        self.gaussians.fill(0);
+        if self.size[0] == 0 {
+            return;
+        }
+        let (lo, hi) = (self.config.min_height, self.config.max_height);
+        for m in means {
+            let z = f64::from(m[2]);
+            if z < lo || z > hi {
+                continue;
+            }
+            let l = self.lattice([f64::from(m[0]), f64::from(m[1])]);
+            let (x, y) = (l[0] - self.origin[0], l[1] - self.origin[1]);
+            if x >= 0 && y >= 0 && (x as usize) < self.size[0] && (y as usize) < self.size[1] {
+                let i = self.index(l);
+                self.gaussians[i] += 1;
+            }
+        }
+    }
+
+    fn class_at(&self, i: usize) -> CellClass {
+        let (f, o, g) = (self.free[i], self.occupied[i], self.gaussians[i]);
+        if g > self.config.gaussians_occupied {
+            return CellClass::Occupied;
+        }
+        if f == 0 && o == 0 {
+            return CellClass::Unknown;
+        }
+        if o >= f {
+            CellClass::Occupied
+        } else if g > self.config.gaussians_unfree {
+            CellClass::Unknown
+        } else {
+            CellClass::Free
+        }
+    }
+
+    /// The class of the cell holding a world point (unknown outside the grid).
+    pub fn class(&self, p: [f64; 2]) -> CellClass {
+        let l = self.lattice(p);
+        let (x, y) = (l[0] - self.origin[0], l[1] - self.origin[1]);
+        if x < 0 || y < 0 || x as usize >= self.size[0] || y as usize >= self.size[1] {
+            return CellClass::Unknown;
+        }
+        self.class_at(self.index(l))
+    }
+
+    /// Every cell's class.
+    pub fn classes(&self) -> ClassGrid {
+        let cell = self.config.cell;
+        ClassGrid {
+            size: self.size,
+            origin: [self.origin[0] as f64 * cell, self.origin[1] as f64 * cell],
+            cell,
+            classes: (0..self.free.len()).map(|i| self.class_at(i)).collect(),
+        }
+    }
+}
+
+/// The lattice cells a 2D segment crosses, in order (Amanatides and Woo's traversal).
+fn traverse(a: [f64; 2], b: [f64; 2], cell: f64, out: &mut Vec<[i64; 2]>) {
+    let mut l = [(a[0] / cell).floor() as i64, (a[1] / cell).floor() as i64];
+    let last = [(b[0] / cell).floor() as i64, (b[1] / cell).floor() as i64];
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let mut step = [0i64; 2];
+    let mut t_max = [f64::INFINITY; 2];
+    let mut t_delta = [f64::INFINITY; 2];
+    for k in 0..2 {
+        if d[k] > 0.0 {
+            step[k] = 1;
+            t_max[k] = ((l[k] + 1) as f64 * cell - a[k]) / d[k];
+            t_delta[k] = cell / d[k];
+        } else if d[k] < 0.0 {
+            step[k] = -1;
+            t_max[k] = (l[k] as f64 * cell - a[k]) / d[k];
+            t_delta[k] = -cell / d[k];
+        }
+    }
+    out.push(l);
+    let limit = (last[0] - l[0]).abs() + (last[1] - l[1]).abs();
+    for _ in 0..limit {
+        if l == last {
+            break;
+        }
+        let k = usize::from(t_max[1] < t_max[0]);
+        l[k] += step[k];
+        t_max[k] += t_delta[k];
+        out.push(l);
+    }
+}

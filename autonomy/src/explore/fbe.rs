@@ -1,0 +1,426 @@
+//! Frontier-based exploration as AG-SLAM's baseline runs it: the evidence grid from every
+//! depth frame, frontier clusters of more than ten cells, the cluster with the highest
+//! count / (mean distance + 20), a goal pose sampled around its centroid facing it, reached
+//! through the shared executor along a shortest path over the free grid. The episode ends
+//! when no frontier is left.
+
+use super::evidence::{ClassGrid, EvidenceConfig, EvidenceGrid};
+use super::executor::{CollisionEngine, Executor, ExecutorConfig};
+use super::frontier::{self, Cluster};
+use super::{Decision, Observation, Plan, Planner};
+use crate::drive::{advance, wrap_angle, Pose2, UnicycleCommand};
+use crate::map::GaussianMap;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// Settings of frontier exploration.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct FbeConfig {
+    /// The evidence grid.
+    pub evidence: EvidenceConfig,
+    /// Goal poses sampled around a cluster's centroid.
+    pub goal_samples: usize,
+    /// Radii of the samples: uniform in [min, max x expansion], metres.
+    pub goal_radius: [f64; 2],
+    /// Clearance a goal needs from anything not free (the robot's radius), metres.
+    pub goal_clearance: f64,
+    /// Clearance of the cells the guidance path may cross, metres.
+    pub path_clearance: f64,
+    /// The robot's footprint radius, marked free under it, metres.
+    pub footprint_radius: f64,
+    /// A cluster whose centroid stays this close to a reached or given-up goal's cluster is
+    /// not chosen again (it cannot be seen from there), metres.
+    pub blacklist_radius: f64,
+    /// Failed plans toward one goal before it is given up.
+    pub max_failures: usize,
+    /// Plans in a row with frontiers but no goal pose before the episode ends.
+    pub max_unreachable_plans: usize,
+    /// Seed of the goal sampling.
+    pub seed: u64,
+}
+
+impl Default for FbeConfig {
+    fn default() -> Self {
+        FbeConfig {
+            evidence: EvidenceConfig::default(),
+            goal_samples: 256,
+            goal_radius: [0.5, 1.0],
+            goal_clearance: 0.35,
+            path_clearance: 0.3,
+            footprint_radius: 0.3,
+            blacklist_radius: 0.5,
+            max_failures: 3,
+            max_unreachable_plans: 5,
+            seed: 0,
+        }
+    }
+}
+
+/// One plan's view of the frontier: classes, the reachable free space, its clearance, shortest
+/// paths from the robot and the clusters.
+#[derive(Debug, Clone)]
+pub struct FrontierView {
+    /// Cell classes.
+    pub grid: ClassGrid,
+    /// The robot's opened free component.
+    pub free: Vec<bool>,
+    /// Distance to the nearest cell not in `free`, metres.
+    pub clearance: Vec<f64>,
+    /// Path lengths from the robot over passable cells, metres.
+    pub distance: Vec<f64>,
+    parent: Vec<usize>,
+    /// The frontier clusters.
+    pub clusters: Vec<Cluster>,
+}
+
+impl FrontierView {
+    /// The view from `robot`; cells within `footprint` of it are passable whatever their
+    /// clearance, so a robot next to a wall can leave.
+    pub fn new(grid: ClassGrid, robot: Pose2, path_clearance: f64, footprint: f64) -> Self {
+        let here = [robot.x, robot.y];
+        let free = frontier::reachable_free(&grid, here);
+        let cells = frontier::frontier_cells(&grid, &free);
+        let clusters = frontier::clusters(&grid, &cells);
+        let clearance = frontier::clearance(&grid, &free);
+        let near = |c: usize| {
+            let p = grid.centre(c);
+            (p[0] - here[0]).hypot(p[1] - here[1]) <= footprint + grid.cell
+        };
+        let passable: Vec<bool> = (0..grid.len())
+            .map(|c| free[c] && (clearance[c] >= path_clearance || near(c)))
+            .collect();
+        let source = grid.cell_of(here).filter(|c| passable[*c]).or_else(|| {
+            (0..grid.len()).filter(|c| passable[*c]).min_by(|a, b| {
+                let (pa, pb) = (grid.centre(*a), grid.centre(*b));
+                (pa[0] - here[0])
+                    .hypot(pa[1] - here[1])
+                    .total_cmp(&(pb[0] - here[0]).hypot(pb[1] - here[1]))
+            })
+        });
+        let (distance, parent) = match source {
+            Some(s) => frontier::distances(&grid, &passable, s),
+            None => (
+                vec![f64::INFINITY; grid.len()],
+                vec![usize::MAX; grid.len()],
+            ),
+        };
+        FrontierView {
+            grid,
+            free,
+            clearance,
+            distance,
+            parent,
+            clusters,
+        }
+    }
+
+    /// Whether a goal at `p` has the clearance and a path from the robot.
+    pub fn admits(&self, p: [f64; 2], clearance: f64) -> bool {
+        self.grid
+            .cell_of(p)
+            .is_some_and(|c| self.clearance[c] >= clearance && self.distance[c].is_finite())
+    }
+
+    /// Goal poses around `centre`, each facing it: bearing uniform, radius uniform in
+    /// [r0, r1 x expansion]; those without clearance or a path are dropped, and the expansion
+    /// grows x1.5 (up to four times) while none survive.
+    pub fn sample_goals(
+        &self,
+        centre: [f64; 2],
+        count: usize,
+        radius: [f64; 2],
+        clearance: f64,
+        rng: &mut ChaCha8Rng,
+    ) -> Vec<Pose2> {
+        let mut expansion = 1.0;
+        for _ in 0..5 {
+            let hi = (radius[1] * expansion).max(radius[0] + 1e-6);
+            let goals: Vec<Pose2> = (0..count)
+                .filter_map(|_| {
+                    let bearing = rng.gen_range(-std::f64::consts::PI..std::f64::consts::PI);
+                    let r = rng.gen_range(radius[0]..hi);
+                    let p = [centre[0] + r * bearing.cos(), centre[1] + r * bearing.sin()];
+                    self.admits(p, clearance).then(|| Pose2 {
+                        x: p[0],
+                        y: p[1],
+                        theta: wrap_angle(bearing + std::f64::consts::PI),
+                    })
+                })
+                .collect();
+            if !goals.is_empty() {
+                return goals;
+            }
+            expansion *= 1.5;
+        }
+        Vec::new()
+    }
+
+    /// Path length from the robot to `p` over the grid, metres (infinite when none).
+    pub fn path_length(&self, p: [f64; 2]) -> f64 {
+        self.grid
+            .cell_of(p)
+            .map_or(f64::INFINITY, |c| self.distance[c])
+    }
+
+    /// The guidance path from the robot to `p`: cell centres every 20 cm.
+    pub fn guidance(&self, robot: Pose2, p: [f64; 2]) -> Vec<[f64; 2]> {
+        let mut path = vec![[robot.x, robot.y]];
+        if let Some(c) = self
+            .grid
+            .cell_of(p)
+            .filter(|c| self.distance[*c].is_finite())
+        {
+            let every = (0.2 / self.grid.cell).round().max(1.0) as usize;
+            path.extend(frontier::path_to(&self.grid, &self.parent, c, every));
+        }
+        path.push(p);
+        path
+    }
+}
+
+/// A full turn in place at the largest turn rate, in whole periods: how AG-SLAM's episodes
+/// begin, so the first frontiers lie all round.
+pub fn look_around(start: Pose2, max_turn: f64, period: f64) -> Plan {
+    let steps = (std::f64::consts::TAU / (max_turn * period)).ceil() as usize;
+    let u = UnicycleCommand {
+        v: 0.0,
+        w: std::f64::consts::TAU / (steps as f64 * period),
+    };
+    let mut states = vec![start];
+    for _ in 0..steps {
+        let last = states[states.len() - 1];
+        states.push(advance(&last, &u, period));
+    }
+    Plan {
+        commands: vec![u; steps],
+        period,
+        states,
+        target: None,
+        guidance: vec![[start.x, start.y]],
+        score: 0.0,
+        candidates: 1,
+        hold: true,
+    }
+}
+
+/// The goal being driven to and the cluster it serves.
+#[derive(Debug, Clone, Copy)]
+pub struct Goal {
+    /// The pose.
+    pub pose: Pose2,
+    /// The centroid of its cluster when chosen.
+    pub centroid: [f64; 2],
+    /// The cluster's utility when chosen.
+    pub utility: f64,
+    /// Failed plans toward it in a row.
+    pub failures: usize,
+}
+
+/// Goal keeping shared by the frontier planners: the goal is kept while its cluster exists and
+/// it is not reached; reached or given-up goals blacklist their cluster's neighbourhood.
+#[derive(Debug, Clone, Default)]
+pub struct GoalKeeper {
+    /// The current goal.
+    pub goal: Option<Goal>,
+    /// Centroids of clusters that were reached or given up.
+    pub blacklist: Vec<[f64; 2]>,
+}
+
+impl GoalKeeper {
+    /// Clusters that may be chosen: not near a blacklisted centroid.
+    pub fn open<'a>(&'a self, clusters: &'a [Cluster], radius: f64) -> Vec<usize> {
+        (0..clusters.len())
+            .filter(|i| {
+                let c = clusters[*i].centroid;
+                !self
+                    .blacklist
+                    .iter()
+                    .any(|b| (b[0] - c[0]).hypot(b[1] - c[1]) < radius)
+            })
+            .collect()
+    }
+
+    /// Drops the goal when it is reached (position within `tolerance`, heading within 0.35
+    /// rad), its cluster is gone, or it has no path; a reached goal's cluster is blacklisted.
+    pub fn review(
+        &mut self,
+        robot: Pose2,
+        view: &FrontierView,
+        tolerance: f64,
+        radius: f64,
+        clearance: f64,
+    ) {
+        let Some(g) = self.goal else {
+            return;
+        };
+        let reached = robot.distance([g.pose.x, g.pose.y]) <= tolerance
+            && wrap_angle(g.pose.theta - robot.theta).abs() < 0.35;
+        let cluster_left = view
+            .clusters
+            .iter()
+            .any(|c| (c.centroid[0] - g.centroid[0]).hypot(c.centroid[1] - g.centroid[1]) < radius);
+        if reached {
+            self.blacklist.push(g.centroid);
+            self.goal = None;
+        } else if !cluster_left || !view.admits([g.pose.x, g.pose.y], clearance) {
+            self.goal = None;
+        }
+    }
+
+    /// Counts a failed plan; gives the goal up (and blacklists its cluster) after `max`.
+    pub fn failed(&mut self, max: usize) {
+        if let Some(g) = &mut self.goal {
+            g.failures += 1;
+            if g.failures >= max {
+                self.blacklist.push(g.centroid);
+                self.goal = None;
+            }
+        }
+    }
+}
+
+/// The FBE planner.
+#[derive(Debug)]
+pub struct FbePlanner {
+    config: FbeConfig,
+    grid: EvidenceGrid,
+    executor: Executor,
+    keeper: GoalKeeper,
+    rng: ChaCha8Rng,
+    started: bool,
+    unreachable_plans: usize,
+}
+
+impl FbePlanner {
+    /// A planner with an empty grid.
+    pub fn new(config: FbeConfig, executor: ExecutorConfig, engine: CollisionEngine) -> Self {
+        FbePlanner {
+            grid: EvidenceGrid::new(config.evidence),
+            rng: ChaCha8Rng::seed_from_u64(config.seed),
+            config,
+            executor: Executor::new(executor, engine),
+            keeper: GoalKeeper::default(),
+            started: false,
+            unreachable_plans: 0,
+        }
+    }
+
+    /// The evidence grid.
+    pub fn evidence(&self) -> &EvidenceGrid {
+        &self.grid
+    }
+
+    /// Chooses a goal: the best open cluster by count / (d + 20) that has a goal pose with a
+    /// path; within it the sampled pose with the shortest path.
+    fn choose(&mut self, view: &FrontierView, robot: Pose2) -> Option<Goal> {
+        let c = &self.config;
+        let open = self.keeper.open(&view.clusters, c.blacklist_radius);
+        let chosen: Vec<Cluster> = open.iter().map(|i| view.clusters[*i].clone()).collect();
+        for (i, utility) in frontier::ranked(&view.grid, &chosen, [robot.x, robot.y]) {
+            let centroid = chosen[i].centroid;
+            let goals = view.sample_goals(
+                centroid,
+                c.goal_samples,
+                c.goal_radius,
+                c.goal_clearance,
+                &mut self.rng,
+            );
+            if let Some(pose) = goals.into_iter().min_by(|a, b| {
+                view.path_length([a.x, a.y])
+                    .total_cmp(&view.path_length([b.x, b.y]))
+            }) {
+                return Some(Goal {
+                    pose,
+                    centroid,
+                    utility,
+                    failures: 0,
+                });
+            }
+            // No goal pose near this cluster now; it may have one once more is seen.
+        }
+        None
+    }
+}
+
+impl Planner for FbePlanner {
+    fn name(&self) -> &'static str {
+        "fbe"
+    }
+
+    fn settings(&self) -> serde_json::Value {
+        serde_json::to_value(&self.config).unwrap_or_default()
+    }
+
+    fn observe(&mut self, observation: &Observation<'_>, _map: &GaussianMap) {
+        self.grid.integrate(observation.depth, observation.camera);
+        self.grid.mark_free_disc(
+            [observation.robot.x, observation.robot.y],
+            self.config.footprint_radius,
+        );
+    }
+
+    fn plan(&mut self, map: &GaussianMap, start: Pose2) -> Decision {
+        self.executor.sync(map);
+        let limits = self.executor.config().limits;
+        let period = self.executor.config().search.primitives.duration;
+        if !self.started {
+            self.started = true;
+            return Decision::Go(look_around(start, limits.max_turn, period));
+        }
+        if let Err(f) = self.executor.check_start(&start) {
+            return Decision::Fail(f);
+        }
+        self.grid
+            .mark_free_disc([start.x, start.y], self.config.footprint_radius);
+        self.grid.set_gaussians(&map.gaussians.means);
+        let view = FrontierView::new(
+            self.grid.classes(),
+            start,
+            self.config.path_clearance,
+            self.config.footprint_radius,
+        );
+        let tolerance = self.executor.config().search.goal_tolerance;
+        self.keeper.review(
+            start,
+            &view,
+            tolerance,
+            self.config.blacklist_radius,
+            self.config.goal_clearance,
+        );
+        if self.keeper.goal.is_none() {
+            self.keeper.goal = self.choose(&view, start);
+        }
+        let Some(goal) = self.keeper.goal else {
+            if view.clusters.is_empty() {
+                return Decision::Done(
+                    "no frontier left: every free cell the robot can reach is explored".to_owned(),
+                );
+            }
+            // Frontiers without a goal pose: look around (more may open up); give up after a
+            // few tries in a row.
+            self.unreachable_plans += 1;
+            if self.unreachable_plans >= self.config.max_unreachable_plans {
+                return Decision::Done(format!(
+                    "no reachable frontier left: {} frontier clusters remain, none with a goal \
+                     pose the robot can get to after {} looks around",
+                    view.clusters.len(),
+                    self.unreachable_plans
+                ));
+            }
+            return Decision::Fail(super::PlanFailure::GoalUnreachable);
+        };
+        self.unreachable_plans = 0;
+        let guidance = view.guidance(start, [goal.pose.x, goal.pose.y]);
+        match self.executor.drive_to(start, goal.pose, &guidance) {
+            Ok(mut plan) => {
+                plan.score = goal.utility;
+                plan.candidates = view.clusters.len();
+                Decision::Go(plan)
+            }
+            Err(f) => {
+                self.keeper.failed(self.config.max_failures);
+                Decision::Fail(f)
+            }
+        }
+    }
+}

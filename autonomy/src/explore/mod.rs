@@ -1,0 +1,124 @@
+//! One interface for every exploration planner, and what they share: the executor that turns a
+//! target into collision-free motion primitives, the schedules the host follows, the recovery
+//! manoeuvres and the watches that notice a robot making no progress. A comparison of planners
+//! then measures where each chooses to go, not how each drives.
+
+pub mod agslam;
+pub mod evidence;
+pub mod executor;
+pub mod fbe;
+pub mod frontier;
+pub mod schedule;
+pub mod watch;
+
+use crate::camera::PinholeCamera;
+use crate::drive::{Pose2, UnicycleCommand};
+use crate::map::GaussianMap;
+
+/// One camera frame as a planner sees it: the metric planar depth (row-major, 0 = no return)
+/// and the camera it was taken with.
+#[derive(Debug, Clone, Copy)]
+pub struct Observation<'a> {
+    /// Planar depth per pixel, metres; 0 where the sensor saw nothing.
+    pub depth: &'a [f32],
+    /// Intrinsics and the optical frame's pose in the world.
+    pub camera: &'a PinholeCamera,
+    /// The sensor's largest range, metres.
+    pub max_range: f64,
+    /// The robot's planar pose when the frame was taken.
+    pub robot: Pose2,
+}
+
+/// A schedule of constant commands with the states the unicycle model predicts for them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// One command per `period` seconds.
+    pub commands: Vec<UnicycleCommand>,
+    /// Seconds each command lasts.
+    pub period: f64,
+    /// The start state, then the state after each command.
+    pub states: Vec<Pose2>,
+    /// Where the planner wants to go (its goal pose), when it has one.
+    pub target: Option<Pose2>,
+    /// The coarse path the executor followed toward the target (robot first), metres.
+    pub guidance: Vec<[f64; 2]>,
+    /// The planner's own score of the plan (RT-GuIDE's xi, FBE's utility, AG-SLAM's score).
+    pub score: f64,
+    /// Candidates the planner compared.
+    pub candidates: usize,
+    /// The host follows it to its end before asking again (a look around).
+    pub hold: bool,
+}
+
+/// What a planner answers when asked for a plan.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Decision {
+    /// Follow this plan until the next one.
+    Go(Plan),
+    /// No plan: the host runs the failure's recovery and asks again.
+    Fail(PlanFailure),
+    /// Nothing is left to do (no frontier, the survey complete): the episode ends, saying why.
+    Done(String),
+}
+
+/// Why no plan came back, and what the host can do about it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PlanFailure {
+    /// Nothing mapped yet (or only floor).
+    #[error("the map has no Gaussians above the ground plane yet; turn in place to look around")]
+    EmptyMap,
+    /// The robot's own position is in collision with the map.
+    #[error("the robot's position collides with the map (an obstacle within r_robot + 3 r); back off toward heading {away:.2} rad and replan")]
+    StartInCollision {
+        /// Heading (radians) pointing away from the colliding Gaussians: where to back off.
+        away: f64,
+    },
+    /// Every primitive from the start collides.
+    #[error("every motion primitive from here collides; turn in place to look around")]
+    NoCollisionFreeCandidate,
+    /// No goal is reachable.
+    #[error("no goal is reachable from here; turn in place to look around")]
+    GoalUnreachable,
+}
+
+/// What the host should do after a failure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Recovery {
+    /// Spin on the spot to see more.
+    TurnInPlace,
+    /// Turn away from what the robot touches and drive off a little, then replan.
+    BackOff,
+}
+
+impl PlanFailure {
+    /// The recovery the planner suggests.
+    pub fn recovery(&self) -> Recovery {
+        match self {
+            PlanFailure::StartInCollision { .. } => Recovery::BackOff,
+            _ => Recovery::TurnInPlace,
+        }
+    }
+
+    /// A short stable name for counting failures in metrics.json.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            PlanFailure::EmptyMap => "EmptyMap",
+            PlanFailure::StartInCollision { .. } => "StartInCollision",
+            PlanFailure::NoCollisionFreeCandidate => "NoCollisionFreeCandidate",
+            PlanFailure::GoalUnreachable => "GoalUnreachable",
+        }
+    }
+}
+
+/// An exploration planner: it sees every camera frame and the map, and every planning period
+/// says where the robot goes next.
+pub trait Planner {
+    /// The name on the command line.
+    fn name(&self) -> &'static str;
+    /// The planner's settings, for metrics.json and episode.json.
+    fn settings(&self) -> serde_json::Value;
+    /// Takes in one camera frame (planners that keep their own grid update it here).
+    fn observe(&mut self, _observation: &Observation<'_>, _map: &GaussianMap) {}
+    /// Plans from `start`, the pose the robot will have when the plan begins.
+    fn plan(&mut self, map: &GaussianMap, start: Pose2) -> Decision;
+}

@@ -1,0 +1,133 @@
+//! The schedule the host follows between plans, the recovery manoeuvres, and the pose a plan
+//! must start from when it begins after a compute delay.
+
+use super::{Plan, Recovery};
+use crate::drive::{advance, wrap_angle, DriveLimits, Pose2, UnicycleCommand};
+
+/// Constant commands of `period` seconds each from `start`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Schedule {
+    /// Simulated time the first command begins, seconds.
+    pub start: f64,
+    /// Seconds per command.
+    pub period: f64,
+    /// The commands.
+    pub commands: Vec<UnicycleCommand>,
+    /// Runs to its end before the planner is asked again (a recovery manoeuvre, a look
+    /// around): replanning every period would cut it short.
+    pub hold: bool,
+}
+
+/// Steps of a recovery manoeuvre, seconds.
+const RECOVERY_TICK: f64 = 0.1;
+/// Seconds of a look around (a little over half a turn at 0.9 rad/s).
+const LOOK_AROUND: f64 = 3.0;
+/// Metres a back-off drives once turned away.
+const BACK_OFF_DISTANCE: f64 = 0.15;
+/// Forward speed of a back-off, m/s.
+const BACK_OFF_SPEED: f64 = 0.3;
+
+impl Schedule {
+    /// Standing still from `start`.
+    pub fn idle(start: f64) -> Self {
+        Schedule {
+            start,
+            period: 1.0,
+            commands: Vec::new(),
+            hold: false,
+        }
+    }
+
+    /// A plan's commands from `start`.
+    pub fn from_plan(plan: &Plan, start: f64) -> Self {
+        Schedule {
+            start,
+            period: plan.period,
+            commands: plan.commands.clone(),
+            hold: plan.hold,
+        }
+    }
+
+    /// The recovery manoeuvres: a look around (turn in place) or a back-off. The unicycle
+    /// cannot reverse, so backing off turns in place to `away` (half round when not known)
+    /// and drives a little that way.
+    pub fn recovery(
+        kind: Recovery,
+        start: f64,
+        heading: f64,
+        away: Option<f64>,
+        limits: &DriveLimits,
+    ) -> Self {
+        let turn_rate = limits.max_turn;
+        let ticks = |seconds: f64| (seconds / RECOVERY_TICK).round() as usize;
+        let commands = match kind {
+            Recovery::TurnInPlace => vec![
+                UnicycleCommand {
+                    v: 0.0,
+                    w: turn_rate
+                };
+                ticks(LOOK_AROUND)
+            ],
+            Recovery::BackOff => {
+                let target = away.unwrap_or(heading + std::f64::consts::PI);
+                let diff = wrap_angle(target - heading);
+                let mut c = vec![
+                    UnicycleCommand {
+                        v: 0.0,
+                        w: turn_rate * diff.signum()
+                    };
+                    ticks(diff.abs() / turn_rate)
+                ];
+                let speed = BACK_OFF_SPEED.min(limits.max_forward);
+                c.extend(vec![
+                    UnicycleCommand { v: speed, w: 0.0 };
+                    ticks(BACK_OFF_DISTANCE / speed)
+                ]);
+                c
+            }
+        };
+        Schedule {
+            start,
+            period: RECOVERY_TICK,
+            commands,
+            hold: true,
+        }
+    }
+
+    /// When the last command ends.
+    pub fn end(&self) -> f64 {
+        self.start + self.period * self.commands.len() as f64
+    }
+
+    /// Whether a schedule that holds is still running at `time`.
+    pub fn holding_at(&self, time: f64) -> bool {
+        self.hold && time < self.end()
+    }
+
+    /// The command at simulated time `t`: standing still before the start and after the end.
+    pub fn at(&self, t: f64) -> UnicycleCommand {
+        let k = ((t - self.start) / self.period).floor();
+        if k < 0.0 {
+            return UnicycleCommand::STOP;
+        }
+        self.commands
+            .get(k as usize)
+            .copied()
+            .unwrap_or(UnicycleCommand::STOP)
+    }
+
+    /// Where the unicycle model puts the robot after following the schedule from `pose` at
+    /// `time` for `lead` seconds: the pose a plan that starts after the compute delay must
+    /// start from.
+    pub fn predict(&self, pose: Pose2, time: f64, lead: f64) -> Pose2 {
+        let dt: f64 = 0.02;
+        let mut state = pose;
+        let mut t = 0.0;
+        while t < lead {
+            let step = dt.min(lead - t);
+            state = advance(&state, &self.at(time + t), step);
+            t += step;
+        }
+        state
+    }
+}

@@ -1,0 +1,676 @@
+//! The planner interface and the comparison planners: the evidence grid and frontiers against
+//! brute force and hand-counted cases, FBE closing a ray-cast room, the Fisher backward against
+//! per-pixel one-hot passes of the f64 reference, EIG's properties, the eq 13 path by hand,
+//! the pose information, and what every planner must do (limits, failures, repeatability).
+
+use autonomy::camera::{Intrinsics, PinholeCamera};
+use autonomy::drive::{advance, DriveLimits, Pose2};
+use autonomy::explore::agslam::{
+    expected_information_gain, path_score, AgslamConfig, AgslamPlanner, SparseFisher, TrainMode,
+};
+use autonomy::explore::evidence::{CellClass, ClassGrid, EvidenceConfig, EvidenceGrid};
+use autonomy::explore::executor::{CollisionEngine, ExecutorConfig};
+use autonomy::explore::fbe::{FbeConfig, FbePlanner};
+use autonomy::explore::frontier::{self, Cluster};
+use autonomy::explore::{Decision, Observation, PlanFailure, Planner, Recovery};
+use autonomy::gaussians::Gaussians;
+use autonomy::map::GaussianMap;
+use autonomy::mapping::{Frame, Mapper, MapperConfig};
+use autonomy::math::Point3;
+use autonomy::planner::information::CameraMount;
+use autonomy::planner::{PlannerConfig, RtGuidePlanner};
+use autonomy::splat::{cpu, reference, ImageGradients, Rasteriser, FISHER_PARAMETERS};
+use autonomy::synthetic::{look_at, BoxScene};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::collections::HashMap;
+
+#[test]
+fn frontier_cells_equal_a_brute_force_scan() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    for _ in 0..20 {
+        let (w, h) = (40, 30);
+        let mut g = ClassGrid::filled([w, h], [0.0, 0.0], 0.05, CellClass::Unknown);
+        // A free blob around the middle with holes, walls and unknown specks.
+        for y in 0..h {
+            for x in 0..w {
+                let d = ((x as f64 - 20.0).powi(2) + (y as f64 - 15.0).powi(2)).sqrt();
+                g.classes[y * w + x] = if d < 11.0 {
+                    match rng.gen_range(0..20) {
+                        0 => CellClass::Occupied,
+                        1 => CellClass::Unknown,
+                        _ => CellClass::Free,
+                    }
+                } else if rng.gen_bool(0.1) {
+                    CellClass::Occupied
+                } else {
+                    CellClass::Unknown
+                };
+            }
+        }
+        let robot = g.centre(15 * w + 20);
+        let free = frontier::reachable_free(&g, robot);
+        let cells = frontier::frontier_cells(&g, &free);
+        // Definition 1: (free dilated 3 x 3) minus free, and unknown, by brute force.
+        // Definition 2: an unknown cell with one of its 8 neighbours in the free component.
+        for c in 0..g.len() {
+            let (x, y) = ((c % w) as i64, (c / w) as i64);
+            let mut dilated = false;
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let (nx, ny) = (x + dx, y + dy);
+                    if nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64 {
+                        dilated |= free[ny as usize * w + nx as usize];
+                    }
+                }
+            }
+            let one = dilated && !free[c] && g.classes[c] == CellClass::Unknown;
+            let two = g.classes[c] == CellClass::Unknown && g.neighbours8(c).any(|n| free[n]);
+            assert_eq!(cells[c], one, "cell {c}");
+            assert_eq!(cells[c], two, "cell {c}");
+        }
+        assert!(cells.iter().any(|f| *f), "the blob has a frontier");
+    }
+}
+
+#[test]
+fn clusters_need_more_than_ten_cells() {
+    let mut g = ClassGrid::filled([40, 10], [0.0, 0.0], 0.05, CellClass::Unknown);
+    let mut frontier_mask = vec![false; g.len()];
+    // A 10-cell run on row 2 and an 11-cell run on row 7, far apart.
+    for x in 0..10 {
+        frontier_mask[2 * 40 + x] = true;
+    }
+    for x in 20..31 {
+        frontier_mask[7 * 40 + x] = true;
+    }
+    g.classes[0] = CellClass::Free;
+    let clusters = frontier::clusters(&g, &frontier_mask);
+    assert_eq!(clusters.len(), 1);
+    assert_eq!(clusters[0].cells.len(), 11);
+    let expected_x = (20..31).map(|x| (x as f64 + 0.5) * 0.05).sum::<f64>() / 11.0;
+    assert!((clusters[0].centroid[0] - expected_x).abs() < 1e-9);
+}
+
+#[test]
+fn the_choice_is_count_over_distance_plus_twenty() {
+    let g = ClassGrid::filled([400, 400], [0.0, 0.0], 0.05, CellClass::Unknown);
+    let run = |x0: usize, y: usize, n: usize| Cluster {
+        cells: (x0..x0 + n).map(|x| y * 400 + x).collect(),
+        centroid: [0.0, 0.0],
+    };
+    let robot = g.centre(0);
+    // Small and near: 15 cells about 10 cells away; large and far: 60 cells about 200 away.
+    let near = run(10, 0, 15);
+    let far = run(200, 0, 60);
+    let u_near = frontier::utility(&g, &near, robot);
+    let u_far = frontier::utility(&g, &far, robot);
+    let mean = |c: &Cluster| {
+        c.cells
+            .iter()
+            .map(|i| {
+                let p = g.centre(*i);
+                (p[0] - robot[0]).hypot(p[1] - robot[1]) / 0.05
+            })
+            .sum::<f64>()
+            / c.cells.len() as f64
+    };
+    assert!((u_near - 15.0 / (mean(&near) + 20.0)).abs() < 1e-12);
+    assert!((u_far - 60.0 / (mean(&far) + 20.0)).abs() < 1e-12);
+    // 15 / (17 + 20) = 0.405 beats 60 / (229.5 + 20) = 0.240.
+    let ranked = frontier::ranked(&g, &[far.clone(), near.clone()], robot);
+    assert_eq!(ranked[0].0, 1, "the near one wins: {ranked:?}");
+    // A 300-cell far cluster: 300 / (349.5 + 20) = 0.81 beats the near one.
+    let huge = run(200, 1, 300);
+    let ranked = frontier::ranked(&g, &[near, huge], robot);
+    assert_eq!(ranked[0].0, 1, "the huge one wins: {ranked:?}");
+}
+
+#[test]
+fn one_ray_clears_up_to_the_wall_marks_it_and_leaves_what_is_behind() {
+    let mut grid = EvidenceGrid::new(EvidenceConfig::default());
+    // From (0, 0.025, 0.4) to a wall point 2 m ahead at the same height.
+    grid.integrate_ray(Point3::new(0.0, 0.025, 0.4), Point3::new(2.0, 0.025, 0.4));
+    for k in 0..40 {
+        let x = 0.025 + 0.05 * k as f64;
+        assert_eq!(grid.class([x, 0.025]), CellClass::Free, "x = {x}");
+    }
+    assert_eq!(grid.class([2.025, 0.025]), CellClass::Occupied);
+    assert_eq!(grid.class([2.125, 0.025]), CellClass::Unknown);
+    assert_eq!(grid.class([1.0, 0.525]), CellClass::Unknown);
+    // A ray to the floor clears without marking an obstacle; one above the band's top is cut.
+    grid.integrate_ray(Point3::new(0.0, 0.525, 0.4), Point3::new(1.0, 0.525, 0.0));
+    assert_eq!(grid.class([0.975, 0.525]), CellClass::Free);
+    grid.integrate_ray(Point3::new(0.0, 1.025, 0.4), Point3::new(4.0, 1.025, 2.2));
+    let cut = 4.0 * (1.3 - 0.4) / (2.2 - 0.4);
+    assert_eq!(grid.class([cut - 0.1, 1.025]), CellClass::Free);
+    assert_eq!(grid.class([cut + 0.1, 1.025]), CellClass::Unknown);
+    assert_eq!(grid.class([3.975, 1.025]), CellClass::Unknown);
+}
+
+fn mount(width: u32, height: u32) -> CameraMount {
+    CameraMount {
+        intrinsics: Intrinsics::from_fovy(60f64.to_radians(), width, height),
+        range: 5.0,
+        ..CameraMount::default()
+    }
+}
+
+/// Distance from the robot's centre to the nearest wall or box of the scene, metres.
+fn clearance(scene: &BoxScene, p: &Pose2) -> f64 {
+    let r = &scene.room;
+    let mut d = (p.x - r.min[0])
+        .min(r.max[0] - p.x)
+        .min(p.y - r.min[1])
+        .min(r.max[1] - p.y);
+    for b in &scene.boxes {
+        let dx = (b.min[0] - p.x).max(p.x - b.max[0]).max(0.0);
+        let dy = (b.min[1] - p.y).max(p.y - b.max[1]).max(0.0);
+        d = d.min(dx.hypot(dy));
+    }
+    d
+}
+
+struct Run {
+    ended: Option<String>,
+    min_clearance: f64,
+    commands: Vec<autonomy::drive::UnicycleCommand>,
+    poses: Vec<Pose2>,
+}
+
+/// A closed loop in a ray-cast scene: 5 frames per 1 s plan, the mapper on each plan's last
+/// frame, the plan's commands applied exactly by the unicycle model.
+fn closed_loop(planner: &mut dyn Planner, scene: &BoxScene, start: Pose2, plans: usize) -> Run {
+    let m = mount(96, 72);
+    let mut mapper = Mapper::new(
+        MapperConfig {
+            iterations: 5,
+            ..MapperConfig::default()
+        },
+        Rasteriser::Cpu,
+    );
+    let mut pose = start;
+    let mut run = Run {
+        ended: None,
+        min_clearance: f64::INFINITY,
+        commands: Vec::new(),
+        poses: vec![start],
+    };
+    for _ in 0..plans {
+        let camera = m.camera_at(&pose);
+        let frame = scene.render(&camera);
+        planner.observe(
+            &Observation {
+                depth: &frame.depth,
+                camera: &camera,
+                max_range: 5.0,
+                robot: pose,
+            },
+            mapper.map(),
+        );
+        mapper
+            .integrate(
+                &Frame {
+                    colour: frame.colour,
+                    depth: frame.depth,
+                },
+                &camera.world_from_camera.to_homogeneous(),
+                &camera.intrinsics,
+            )
+            .expect("integrate");
+        let schedule: Vec<(autonomy::drive::UnicycleCommand, f64)> =
+            match planner.plan(mapper.map(), pose) {
+                Decision::Go(plan) => {
+                    run.commands.extend(plan.commands.iter().copied());
+                    plan.commands.iter().map(|u| (*u, plan.period)).collect()
+                }
+                Decision::Fail(f) => {
+                    assert_eq!(f.recovery(), Recovery::TurnInPlace, "{f}");
+                    vec![(autonomy::drive::UnicycleCommand { v: 0.0, w: 0.9 }, 1.0)]
+                }
+                Decision::Done(reason) => {
+                    run.ended = Some(reason);
+                    break;
+                }
+            };
+        // One second of the schedule, with 5 frames along it for the grid.
+        let mut left = 1.0;
+        let mut queue = schedule.clone();
+        let mut since_frame = 0.0;
+        while left > 1e-9 {
+            let Some((u, d)) = queue.first_mut() else {
+                break;
+            };
+            let dt = d.min(left).min(0.05);
+            pose = advance(&pose, u, dt);
+            *d -= dt;
+            left -= dt;
+            since_frame += dt;
+            if *d <= 1e-9 {
+                queue.remove(0);
+            }
+            run.min_clearance = run.min_clearance.min(clearance(scene, &pose));
+            if since_frame >= 0.2 - 1e-9 && left > 1e-9 {
+                since_frame = 0.0;
+                let camera = m.camera_at(&pose);
+                let f = scene.render(&camera);
+                planner.observe(
+                    &Observation {
+                        depth: &f.depth,
+                        camera: &camera,
+                        max_range: 5.0,
+                        robot: pose,
+                    },
+                    mapper.map(),
+                );
+            }
+        }
+        run.poses.push(pose);
+    }
+    run
+}
+
+fn fbe() -> FbePlanner {
+    FbePlanner::new(
+        FbeConfig::default(),
+        ExecutorConfig::default(),
+        CollisionEngine::Grid,
+    )
+}
+
+fn room_start() -> Pose2 {
+    Pose2 {
+        x: -1.0,
+        y: -1.0,
+        theta: 0.3,
+    }
+}
+
+#[test]
+fn fbe_explores_a_ray_cast_room_until_no_frontier_is_left() {
+    let scene = BoxScene::room();
+    let mut planner = fbe();
+    let run = closed_loop(&mut planner, &scene, room_start(), 150);
+    let ended = run.ended.expect("FBE ends by itself");
+    assert!(ended.starts_with("no frontier left"), "{ended}");
+    // The robot's footprint (0.3 m) never touched a wall or box.
+    assert!(run.min_clearance > 0.3, "clearance {}", run.min_clearance);
+    let limits = DriveLimits::default();
+    assert!(run.commands.iter().all(|u| limits.admits(*u)));
+}
+
+/// Three Gaussians in front of a 16 x 16 camera, overlapping.
+fn three() -> (Gaussians, PinholeCamera) {
+    let mut g = Gaussians::default();
+    g.push([0.1, 0.05, 2.0], 0.12, 0.7, [0.9, 0.2, 0.1]);
+    g.push([-0.1, 0.0, 2.3], 0.2, 0.5, [0.1, 0.8, 0.3]);
+    g.push([0.0, -0.1, 2.6], 0.25, 0.8, [0.3, 0.3, 0.9]);
+    let camera = PinholeCamera {
+        intrinsics: Intrinsics::from_fovy(40f64.to_radians(), 16, 16),
+        world_from_camera: autonomy::math::Isometry3::identity(),
+    };
+    (g, camera)
+}
+
+#[test]
+fn the_fisher_backward_squares_each_pixel_on_its_own() {
+    let (g, camera) = three();
+    let reference_h = reference::fisher(&g, &camera).expect("reference fisher");
+    // sum_p (d f_p / d w)^2 from one-hot backward passes: pixel p's colour and depth get 1.
+    let pixels = 16 * 16;
+    let mut by_hand = vec![[0.0f64; FISHER_PARAMETERS]; g.len()];
+    for p in 0..pixels {
+        let mut grads = ImageGradients::zeros(pixels);
+        grads.colour[3 * p..3 * p + 3].fill(1.0);
+        grads.depth[p] = 1.0;
+        let d = reference::backward(&g, &camera, &grads).expect("backward");
+        for i in 0..g.len() {
+            let per = [
+                d.means[i][0],
+                d.means[i][1],
+                d.means[i][2],
+                d.log_radii[i],
+                d.logit_opacities[i],
+                d.colours[i][0],
+                d.colours[i][1],
+                d.colours[i][2],
+            ];
+            for k in 0..FISHER_PARAMETERS {
+                by_hand[i][k] += f64::from(per[k]) * f64::from(per[k]);
+            }
+        }
+    }
+    let cpu_h = cpu::fisher(&cpu::render(&g, &camera).expect("render"));
+    for i in 0..g.len() {
+        for k in 0..FISHER_PARAMETERS {
+            let (r, h, c) = (reference_h[i][k], by_hand[i][k], f64::from(cpu_h[i][k]));
+            let scale = r.abs().max(1e-3);
+            assert!(
+                (r - h).abs() / scale < 1e-4,
+                "gaussian {i} param {k}: {r} vs {h}"
+            );
+            assert!(
+                (r - c).abs() / scale < 2e-3,
+                "gaussian {i} param {k}: cpu {c} vs {r}"
+            );
+        }
+    }
+    // Not the square of the summed gradient.
+    let mut all = ImageGradients::zeros(pixels);
+    all.colour.fill(1.0);
+    all.depth.fill(1.0);
+    let summed = reference::backward(&g, &camera, &all).expect("backward");
+    let squared = f64::from(summed.means[0][0]).powi(2);
+    assert!((squared - reference_h[0][0]).abs() > 1e-3 * reference_h[0][0].abs().max(1e-9));
+}
+
+#[test]
+fn culled_gaussians_get_no_information() {
+    let (mut g, camera) = three();
+    g.push([0.0, 0.0, -1.0], 0.1, 0.9, [0.5; 3]); // behind the camera
+    g.push([30.0, 0.0, 2.0], 0.1, 0.9, [0.5; 3]); // far off screen
+    let h = cpu::fisher(&cpu::render(&g, &camera).expect("render"));
+    assert_eq!(h[3], [0.0; FISHER_PARAMETERS]);
+    assert_eq!(h[4], [0.0; FISHER_PARAMETERS]);
+    assert!(h[0].iter().all(|v| *v > 0.0));
+}
+
+fn dense(h: &[[f32; FISHER_PARAMETERS]]) -> SparseFisher {
+    SparseFisher {
+        indices: (0..h.len() as u32).collect(),
+        values: h.to_vec(),
+    }
+}
+
+#[test]
+fn eig_falls_as_the_training_set_grows_and_is_scale_free() {
+    let (g, camera) = three();
+    let h_x = cpu::fisher(&cpu::render(&g, &camera).expect("render"));
+    let train = vec![[0.5f32; FISHER_PARAMETERS]; g.len()];
+    let lambda = 1.0;
+    let before = expected_information_gain(&h_x, &train, lambda);
+    let mut grown = train.clone();
+    for (t, x) in grown.iter_mut().zip(&h_x) {
+        for (a, b) in t.iter_mut().zip(x) {
+            *a += b;
+        }
+    }
+    let after = expected_information_gain(&h_x, &grown, lambda);
+    assert!(after < before, "{after} < {before}");
+    // Scaling H_cand, H_train and lambda together leaves EIG unchanged.
+    let scale = 1e-6f32;
+    let s = |h: &[[f32; FISHER_PARAMETERS]]| -> Vec<[f32; FISHER_PARAMETERS]> {
+        h.iter().map(|v| v.map(|x| x * scale)).collect()
+    };
+    let scaled = expected_information_gain(&s(&h_x), &s(&train), lambda * f64::from(scale));
+    assert!(
+        (scaled - before).abs() / before < 1e-4,
+        "{scaled} vs {before}"
+    );
+    // The sparse form agrees with the dense one.
+    let sparse = dense(&h_x).eig(&train, &HashMap::new(), lambda);
+    assert!((sparse - before).abs() / before < 1e-9);
+}
+
+#[test]
+fn a_two_view_path_score_matches_a_hand_computation() {
+    let config = AgslamConfig::default();
+    let train = vec![[1.0f32; FISHER_PARAMETERS], [3.0; FISHER_PARAMETERS]];
+    let a = vec![[2.0f32; FISHER_PARAMETERS], [0.0; FISHER_PARAMETERS]];
+    let b = vec![[1.0f32; FISHER_PARAMETERS], [4.0; FISHER_PARAMETERS]];
+    let views = vec![(dense(&a), 1.5), (dense(&b), -0.5)];
+    let score = path_score(&views, 10, 5, &train, &config, 0.25);
+    // View 1: tr = 8 * 2 / (1 + 1) = 8. View 2 against H_train + a: 8 * 1 / (3 + 1) +
+    // 8 * 4 / (3 + 1) = 2 + 8 = 10. Pose terms 0.2 * 5 * (1.5 - 0.5).
+    let hand = (0.2 * 5.0 * (1.5 + -0.5) + 8f64.ln() + 10f64.ln()) / 10.0 + 30.0 * 0.25;
+    assert!((score - hand).abs() < 1e-9, "{score} vs {hand}");
+}
+
+#[test]
+fn well_observed_gaussians_are_worth_less_than_new_ones() {
+    let scene = BoxScene::room();
+    let m = mount(64, 48);
+    let mut mapper = Mapper::new(MapperConfig::default(), Rasteriser::Cpu);
+    // Map the room's -y half from its middle.
+    let mut seen_pose = Pose2 {
+        x: 0.0,
+        y: 0.0,
+        theta: -std::f64::consts::FRAC_PI_2,
+    };
+    for k in 0..6 {
+        seen_pose.theta = -std::f64::consts::FRAC_PI_2 + 0.3 * (k as f64 - 2.5);
+        let camera = m.camera_at(&seen_pose);
+        let f = scene.render(&camera);
+        mapper
+            .integrate(
+                &Frame {
+                    colour: f.colour,
+                    depth: f.depth,
+                },
+                &camera.world_from_camera.to_homogeneous(),
+                &camera.intrinsics,
+            )
+            .expect("integrate");
+    }
+    let mut planner = AgslamPlanner::new(
+        AgslamConfig {
+            resolution_divisor: 1,
+            ..AgslamConfig::default()
+        },
+        m,
+        ExecutorConfig::default(),
+        CollisionEngine::Grid,
+    );
+    let seen = m.camera_at(&Pose2 {
+        x: 0.0,
+        y: 0.0,
+        theta: -std::f64::consts::FRAC_PI_2,
+    });
+    for _ in 0..20 {
+        planner.add_keyframe(mapper.map(), seen);
+    }
+    // The same Gaussians again from the same place, against Gaussians no keyframe saw: the
+    // map plus an unseen copy shifted to the +y wall.
+    let map = mapper.map();
+    let mut unseen = map.gaussians.clone();
+    for m in &mut unseen.means {
+        m[1] = -m[1];
+    }
+    let train = planner.train_for(map);
+    let mut all = map.gaussians.clone();
+    for i in 0..unseen.len() {
+        all.push(
+            unseen.means[i],
+            unseen.log_radii[i].exp(),
+            1.0 / (1.0 + (-unseen.logit_opacities[i]).exp()),
+            unseen.colours[i],
+        );
+    }
+    let mut train_all = train.clone();
+    train_all.resize(all.len(), [0.0; FISHER_PARAMETERS]);
+    let eig = |theta: f64| {
+        let camera = m.camera_at(&Pose2 {
+            x: 0.0,
+            y: 0.0,
+            theta,
+        });
+        let h = cpu::fisher(&cpu::render(&all, &camera).expect("render"));
+        expected_information_gain(&h, &train_all, 1.0)
+    };
+    let old = eig(-std::f64::consts::FRAC_PI_2);
+    let new = eig(std::f64::consts::FRAC_PI_2);
+    assert!(old < 0.5 * new, "seen {old} vs new {new}");
+}
+
+#[test]
+fn incremental_and_full_training_sets_agree_on_a_settled_map() {
+    let (g, _) = three();
+    let map = GaussianMap::new(g.clone(), vec![0.0; g.len()]);
+    let m = mount(32, 24);
+    let make = |train| {
+        AgslamPlanner::new(
+            AgslamConfig {
+                train,
+                resolution_divisor: 1,
+                ..AgslamConfig::default()
+            },
+            m,
+            ExecutorConfig::default(),
+            CollisionEngine::Grid,
+        )
+    };
+    let (mut inc, mut full) = (make(TrainMode::Incremental), make(TrainMode::Full));
+    for k in 0..4 {
+        let camera = look_at(
+            [0.3 * k as f64 - 0.4, -0.2, -0.5],
+            [0.0, 0.0, 2.3],
+            m.intrinsics,
+        );
+        inc.add_keyframe(&map, camera);
+        full.add_keyframe(&map, camera);
+    }
+    let (a, b) = (inc.train_for(&map), full.train_for(&map));
+    for (x, y) in a.iter().zip(&b) {
+        for (p, q) in x.iter().zip(y) {
+            assert!((p - q).abs() <= 1e-5 * p.abs().max(1e-6), "{p} vs {q}");
+        }
+        assert!(x.iter().any(|v| *v > 0.0));
+    }
+}
+
+#[test]
+fn pose_information_is_positive_definite_and_texture_constrains_more() {
+    // A wall 2 m ahead, densely tiled with Gaussians: checkered colours against a flat grey.
+    let wall = |textured: bool| {
+        let mut g = Gaussians::default();
+        for i in 0..40 {
+            for j in 0..30 {
+                let (x, y) = (-1.0 + 0.05 * i as f32, -0.75 + 0.05 * j as f32);
+                let c = if textured && (i / 4 + j / 4) % 2 == 0 {
+                    0.9
+                } else {
+                    0.4
+                };
+                g.push(
+                    [x, y, 2.0 + 0.2 * (x * 3.0).sin() * (y * 2.0).cos()],
+                    0.03,
+                    0.9,
+                    [c; 3],
+                );
+            }
+        }
+        g
+    };
+    let camera = PinholeCamera {
+        intrinsics: Intrinsics::from_fovy(50f64.to_radians(), 64, 48),
+        world_from_camera: autonomy::math::Isometry3::identity(),
+    };
+    let info = |g: &Gaussians| {
+        let r = cpu::render(g, &camera).expect("render");
+        cpu::fisher_and_pose(&r).1
+    };
+    let (textured, flat) = (info(&wall(true)), info(&wall(false)));
+    let m = nalgebra::Matrix6::from_fn(|r, c| textured[r][c]);
+    let eigen = m.symmetric_eigen();
+    assert!(
+        eigen.eigenvalues.iter().all(|e| *e > 0.0),
+        "{:?}",
+        eigen.eigenvalues
+    );
+    let (lt, lf) = (cpu::log_det(&textured, -1e9), cpu::log_det(&flat, -1e9));
+    assert!(lt > lf, "textured {lt} vs flat {lf}");
+    // log det by Cholesky equals the eigenvalues' log sum.
+    let by_eigen: f64 = eigen.eigenvalues.iter().map(|e| e.ln()).sum();
+    assert!((lt - by_eigen).abs() < 1e-6 * by_eigen.abs().max(1.0));
+}
+
+/// A map of a wall of Gaussians 2 m ahead of the origin.
+fn wall_map() -> GaussianMap {
+    let mut g = Gaussians::default();
+    for i in 0..60 {
+        for j in 0..20 {
+            g.push(
+                [2.0, -1.5 + 0.05 * i as f32, 0.05 + 0.06 * j as f32],
+                0.03,
+                0.9,
+                [0.6; 3],
+            );
+        }
+    }
+    let n = g.len();
+    GaussianMap::new(g, (0..n).map(|i| (i % 5) as f32 * 1e-3).collect())
+}
+
+fn planners() -> Vec<Box<dyn Planner>> {
+    let mut rt = PlannerConfig::default();
+    rt.mount = mount(64, 48);
+    vec![
+        Box::new(RtGuidePlanner::new(rt, CollisionEngine::Grid)),
+        Box::new(fbe()),
+        Box::new(AgslamPlanner::new(
+            AgslamConfig::default(),
+            mount(64, 48),
+            ExecutorConfig::default(),
+            CollisionEngine::Grid,
+        )),
+    ]
+}
+
+#[test]
+fn every_planner_fails_with_a_recovery_when_it_starts_inside_an_obstacle() {
+    let mut map = wall_map();
+    // Obstacles right at the robot, on its +x side.
+    for k in 0..6 {
+        map.gaussians
+            .push([0.12, -0.1 + 0.04 * k as f32, 0.25], 0.02, 0.9, [0.5; 3]);
+        map.uncertainty.push(0.0);
+    }
+    map.adopt_new_gaussians();
+    let start = Pose2 {
+        x: 0.0,
+        y: 0.0,
+        theta: 0.0,
+    };
+    for mut planner in planners() {
+        let name = planner.name();
+        // The frontier planners begin with a look around; the next plan is the real one.
+        let mut decision = planner.plan(&map, start);
+        if let Decision::Go(plan) = &decision {
+            assert!(plan.hold, "{name}: the first plan is a held look around");
+            decision = planner.plan(&map, start);
+        }
+        match decision {
+            Decision::Fail(f @ PlanFailure::StartInCollision { away }) => {
+                assert_eq!(f.recovery(), Recovery::BackOff, "{name}");
+                assert!(
+                    (away.abs() - std::f64::consts::PI).abs() < 0.5,
+                    "{name}: away {away}"
+                );
+            }
+            other => panic!("{name}: expected StartInCollision, got {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn every_planner_stays_within_the_drive_limits_and_repeats_exactly() {
+    let scene = BoxScene::room();
+    let limits = DriveLimits::default();
+    for k in 0..3 {
+        let runs: Vec<Run> = (0..2)
+            .map(|_| {
+                let mut planner = planners().swap_remove(k);
+                closed_loop(planner.as_mut(), &scene, room_start(), 8)
+            })
+            .collect();
+        let name = planners()[k].name();
+        assert!(
+            runs[0].commands.iter().all(|u| limits.admits(*u)),
+            "{name}: {:?}",
+            runs[0].commands
+        );
+        assert!(!runs[0].commands.is_empty(), "{name} planned");
+        assert_eq!(runs[0].commands, runs[1].commands, "{name} repeats");
+        assert_eq!(runs[0].poses, runs[1].poses, "{name} repeats");
+    }
+}

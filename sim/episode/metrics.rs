@@ -1,0 +1,74 @@
+//! What an episode measured (metrics.json): its stages' wall times, its path, its collisions
+//! and recoveries, the planner and its settings, and the map's scores on the hidden test set.
+
+use serde::Serialize;
+
+/// Median and 95th percentile of a stage's wall seconds.
+#[derive(Debug, Clone, Copy, Serialize, Default)]
+pub struct StageTime {
+    /// Median, seconds.
+    pub median: f64,
+    /// 95th percentile, seconds.
+    pub p95: f64,
+}
+
+/// The median and 95th percentile of a stage's wall times.
+pub fn stage(mut v: Vec<f64>) -> StageTime {
+    if v.is_empty() {
+        return StageTime::default();
+    }
+    v.sort_by(f64::total_cmp);
+    StageTime {
+        median: v[v.len() / 2],
+        p95: v[((v.len() as f64 * 0.95).ceil() as usize).clamp(1, v.len()) - 1],
+    }
+}
+
+/// What an episode measured (metrics.json).
+#[derive(Debug, Clone, Serialize)]
+pub struct Metrics {
+    /// Simulated seconds.
+    pub simulated_seconds: f64,
+    /// Wall seconds of the whole run.
+    pub wall_seconds: f64,
+    /// Simulated seconds per wall second.
+    pub real_time_factor: f64,
+    /// Metres the robot's base drove (its origin on the floor, summed every physics step).
+    pub path_length: f64,
+    /// Metres the camera moved from frame to frame: the length of groundtruth.txt's positions,
+    /// which is what trajectory tools (evo) report; longer than the base's when it turns, the
+    /// camera sitting 0.2 m ahead of the axle.
+    pub camera_path_length: f64,
+    /// Physics steps with a robot-world contact (floor excluded).
+    pub collision_steps: usize,
+    /// Recovery events (turn in place after a planner failure, back off after no progress).
+    pub recovery_events: usize,
+    /// Planner failures by kind.
+    pub plan_failures: std::collections::BTreeMap<String, usize>,
+    /// Gaussians in the final map.
+    pub gaussians: usize,
+    /// Camera frames written.
+    pub frames: usize,
+    /// Mapping steps.
+    pub mapping_steps: usize,
+    /// Wall time of a mapping step.
+    pub mapping: StageTime,
+    /// Wall time of a plan.
+    pub planning: StageTime,
+    /// Wall time of a camera frame: render, read back, write the PNGs.
+    pub camera: StageTime,
+    /// Wall time of a physics step (drive controller included).
+    pub physics: StageTime,
+    /// The splat engine used.
+    pub engine: String,
+    /// The planner that drove the robot.
+    pub planner: &'static str,
+    /// Its settings.
+    pub planner_settings: serde_json::Value,
+    /// Why the episode ended: "budget", "survey complete", or "stuck: ...".
+    pub ended: String,
+    /// Peak resident memory of the process (VmHWM), bytes; 0 where the OS does not say.
+    pub peak_memory_bytes: u64,
+    /// The map on hidden test views.
+    pub evaluation: crate::evaluate::Evaluation,
+}
