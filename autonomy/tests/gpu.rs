@@ -63,6 +63,48 @@ fn gpu_engine_matches_the_cpu_engine() {
     assert_matches_cpu(&gpu, &dense, 64, 48, 9);
 }
 
+/// The Fisher mode of both engines on the same scene: each Gaussian's 8 values within 1e-3 of
+/// the largest of that parameter.
+fn assert_fisher_matches_cpu(gpu: &GpuRasteriser, gaussians: &Gaussians, width: u32, height: u32) {
+    let cam = camera(width, height);
+    let expected = cpu::fisher(&cpu::render(gaussians, &cam).expect("cpu render"));
+    let got = gpu
+        .fisher(&gpu.render(gaussians, &cam).expect("gpu render"))
+        .expect("gpu fisher");
+    assert_eq!(got.len(), expected.len());
+    for k in 0..autonomy::splat::FISHER_PARAMETERS {
+        let largest = expected.iter().fold(0.0f32, |m, h| m.max(h[k].abs()));
+        assert!(largest > 0.0, "parameter {k} has information");
+        for (i, (g, e)) in got.iter().zip(&expected).enumerate() {
+            assert!(
+                (g[k] - e[k]).abs() <= 1e-3 * largest,
+                "gaussian {i} parameter {k}: gpu {} vs cpu {}",
+                g[k],
+                e[k]
+            );
+        }
+    }
+}
+
+#[test]
+fn gpu_fisher_matches_the_cpu_engine() {
+    let Some(gpu) = engine(None) else { return };
+    let cam = camera(37, 29);
+    assert_fisher_matches_cpu(&gpu, &scene(21, 60, &cam), 37, 29);
+    let cam = camera(64, 48);
+    let mut dense = scene(44, 500, &cam);
+    dense.logit_opacities.iter_mut().for_each(|l| *l += 2.0);
+    assert_fisher_matches_cpu(&gpu, &dense, 64, 48);
+    // Banded: a small binding limit splits the image.
+    let Some(banded) = engine(Some(16 * 1024)) else {
+        return;
+    };
+    let cam = camera(32, 80);
+    let mut wide = scene(5, 300, &cam);
+    wide.log_radii.iter_mut().for_each(|r| *r += 0.7);
+    assert_fisher_matches_cpu(&banded, &wide, 32, 80);
+}
+
 #[test]
 fn gpu_engine_splits_pairs_above_the_binding_limit_into_bands() {
     // 16 KiB bindings hold 4096 pairs, 341 splat records, or one row of tiles of a 32-pixel-wide

@@ -119,6 +119,16 @@ impl Rasteriser {
         }
     }
 
+    /// The diagonal Fisher information of the view `rendered` drew (AG-SLAM eqs 7-9).
+    pub fn fisher(&self, rendered: &Rendered) -> Result<super::FisherDiagonal, RenderError> {
+        match (self, rendered) {
+            (Rasteriser::Cpu, Rendered::Cpu(r)) => Ok(cpu::fisher(r)),
+            (Rasteriser::Gpu(g), Rendered::Gpu(r)) => g.fisher(r),
+            (_, Rendered::Cpu(_)) => Err(RenderError::EngineMismatch("cpu")),
+            (_, Rendered::Gpu(_)) => Err(RenderError::EngineMismatch("gpu")),
+        }
+    }
+
     /// Gradients of a per-pixel loss with respect to every parameter.
     pub fn backward(
         &self,

@@ -11,8 +11,12 @@
 @group(0) @binding(4) var<storage, read> pixels: array<f32>;
 // Per pixel: d loss / d (r, g, b, depth, silhouette).
 @group(0) @binding(5) var<storage, read> pixel_gradients: array<f32>;
-// Per splat: 8 gradients as f32 bits, then a touched flag.
+// Per splat: 8 gradients as f32 bits, then a touched flag. In the Fisher mode: the 8
+// parameters' squared per-pixel gradients, summed.
 @group(0) @binding(6) var<storage, read_write> screen: array<atomic<u32>>;
+// Gaussian records (2 vec4: mean xyz, log-radius; logit-opacity, rgb), for the Fisher mode's
+// per-pixel chain rule.
+@group(0) @binding(7) var<storage, read> gaussians: array<vec4<f32>>;
 
 const BATCH: u32 = 64u;
 
@@ -20,6 +24,7 @@ var<workgroup> shape: array<vec4<f32>, BATCH>;
 var<workgroup> colour: array<vec4<f32>, BATCH>;
 var<workgroup> radius: array<f32, BATCH>;
 var<workgroup> index: array<u32, BATCH>;
+var<workgroup> point: array<vec3<f32>, BATCH>;
 var<workgroup> partial: array<array<f32, 8>, 256>;
 var<workgroup> flag: atomic<u32>;
 var<workgroup> snapshot: u32;
@@ -35,12 +40,45 @@ fn atomic_add_f32(slot: u32, value: f32) {
     }
 }
 
+// One pixel's parameter gradients from its screen-space ones (the chain rule of
+// project.wgsl's `chain`), squared: its share of the diagonal Fisher information.
+fn squared_parameters(g: array<f32, 8>, p: vec3<f32>, radius: f32, opacity: f32) -> array<f32, 8> {
+    let world_radius = radius * p.z / params.fx;
+    let inv_z2 = 1.0 / (p.z * p.z);
+    let d_depth = g[7] - (g[0] * params.fx * p.x + g[1] * params.fy * p.y + g[2] * params.fx * world_radius) * inv_z2;
+    let d_camera = vec3<f32>(g[0] * params.fx / p.z, g[1] * params.fy / p.z, d_depth);
+    let r = params.camera_from_world;
+    let d_world = vec3<f32>(dot(r[0].xyz, d_camera), dot(r[1].xyz, d_camera), dot(r[2].xyz, d_camera));
+    let d_radius = g[2] * radius;
+    let d_opacity = g[3] * opacity * (1.0 - opacity);
+    return array<f32, 8>(
+        d_world.x * d_world.x, d_world.y * d_world.y, d_world.z * d_world.z,
+        d_radius * d_radius, d_opacity * d_opacity,
+        g[4] * g[4], g[5] * g[5], g[6] * g[6],
+    );
+}
+
 @compute @workgroup_size(16, 16)
 fn backward(
     @builtin(local_invocation_id) local: vec3<u32>,
     @builtin(local_invocation_index) lid: u32,
     @builtin(workgroup_id) wid: vec3<u32>,
 ) {
+    walk(local, lid, wid, false);
+}
+
+// The Fisher mode: each pixel's gradient is carried to the parameters and squared before the
+// workgroup sums it (AG-SLAM eqs 7-9), so it is not the square of the summed gradient.
+@compute @workgroup_size(16, 16)
+fn fisher(
+    @builtin(local_invocation_id) local: vec3<u32>,
+    @builtin(local_invocation_index) lid: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    walk(local, lid, wid, true);
+}
+
+fn walk(local: vec3<u32>, lid: u32, wid: vec3<u32>, squared: bool) {
     let pixel = tile_pixel(local, wid);
     let tile = pixel.x;
     let x = pixel.y;
@@ -83,6 +121,7 @@ fn backward(
             colour[lid] = vec4<f32>(splats[3u * s + 2u].xyz, s1.x);
             radius[lid] = s1.z;
             index[lid] = s;
+            point[lid] = (params.camera_from_world * vec4<f32>(gaussians[2u * s].xyz, 1.0)).xyz;
         }
         workgroupBarrier();
         for (var jj = 0u; jj < batch; jj++) {
@@ -122,7 +161,11 @@ fn backward(
                     g[3] = d_alpha * a * (1.0 / sh.w);
                 }
             }
-            partial[lid] = g;
+            if (squared) {
+                partial[lid] = squared_parameters(g, point[j], radius[j], sh.w);
+            } else {
+                partial[lid] = g;
+            }
             workgroupBarrier();
             if (lid == 0u) {
                 snapshot = atomicLoad(&flag);

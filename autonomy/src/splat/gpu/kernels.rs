@@ -196,8 +196,8 @@ impl Kernels {
                 gpu,
                 "backward",
                 concat!(include_str!("tile.wgsl"), include_str!("backward.wgsl")),
-                &[Uniform, Read, Read, Read, Read, Read, Write],
-                &["backward"],
+                &[Uniform, Read, Read, Read, Read, Read, Write, Read],
+                &["backward", "fisher"],
             ),
         }
     }

@@ -12,7 +12,7 @@ pub(crate) mod kernels;
 
 pub use device::{AdapterPolicy, GpuDevice, GpuError};
 
-use super::{validate_camera, ImageGradients, Images, RenderError, TILE};
+use super::{validate_camera, FisherDiagonal, ImageGradients, Images, RenderError, TILE};
 use crate::camera::PinholeCamera;
 use crate::gaussians::{Gaussians, Gradients};
 use kernels::{linear_groups, Kernels};
@@ -464,13 +464,14 @@ impl GpuRasteriser {
         })
     }
 
-    /// Gradients of a loss with per-pixel gradients `image_gradients` with respect to every
-    /// parameter of the Gaussians that `render` drew.
-    pub fn backward(
+    /// Runs the per-tile backward kernel `entry` over every band with per-pixel gradients
+    /// `image_gradients`; returns the per-Gaussian sums (9 floats as bits each).
+    fn walk_bands(
         &self,
         render: &GpuRender,
         image_gradients: &ImageGradients,
-    ) -> Result<Gradients, RenderError> {
+        entry: &str,
+    ) -> Result<wgpu::Buffer, RenderError> {
         let pixel_count = render.images.width * render.images.height;
         image_gradients.check(pixel_count)?;
         let gpu = &self.gpu;
@@ -507,16 +508,49 @@ impl GpuRasteriser {
                     &band.pixels,
                     &pixel_gradients,
                     &screen,
+                    &render.gaussians,
                 ],
             );
             self.kernels.backward.dispatch(
                 &mut encoder,
-                "backward",
+                entry,
                 &bind,
                 (params.tiles_x, band.rows.1 - band.rows.0),
             );
             gpu.submit(encoder)?;
         }
+        Ok(screen)
+    }
+
+    /// The diagonal Fisher information of the view `render` drew (colour and depth with an
+    /// upstream gradient of 1, each pixel squared on its own), as the CPU engine's `fisher`.
+    pub fn fisher(&self, render: &GpuRender) -> Result<FisherDiagonal, RenderError> {
+        let pixels = render.images.width * render.images.height;
+        let ones = ImageGradients {
+            colour: vec![1.0; 3 * pixels],
+            depth: vec![1.0; pixels],
+            silhouette: vec![0.0; pixels],
+        };
+        let screen = self.walk_bands(render, &ones, "fisher")?;
+        let count = render.params.count as usize;
+        let bits: Vec<u32> = self.gpu.read(self.gpu.encoder(), &screen, count * 9)?;
+        Ok(bits
+            .chunks_exact(9)
+            .map(|h| std::array::from_fn(|k| f32::from_bits(h[k])))
+            .collect())
+    }
+
+    /// Gradients of a loss with per-pixel gradients `image_gradients` with respect to every
+    /// parameter of the Gaussians that `render` drew.
+    pub fn backward(
+        &self,
+        render: &GpuRender,
+        image_gradients: &ImageGradients,
+    ) -> Result<Gradients, RenderError> {
+        let screen = self.walk_bands(render, image_gradients, "backward")?;
+        let gpu = &self.gpu;
+        let params = render.params;
+        let count = params.count as usize;
         let uniform = gpu.uniform("params", &params);
         let unused_rects = gpu.storage("unused", 16);
         let gradient_buffer = gpu.storage("gradients", count as u64 * 36);
