@@ -6,6 +6,7 @@ mod drive;
 mod egl;
 mod episode;
 mod nothing_lost;
+mod planners;
 mod scene;
 mod sensor;
 mod support;
