@@ -456,3 +456,125 @@ pub fn bench_viewpoints(n: usize, viewpoints: usize) -> (f64, f64, f64) {
     tracing::debug!(total, brute, "viewpoint scores");
     (build, score, brute_each)
 }
+
+/// One row of `bench planners`.
+#[derive(Debug, Clone)]
+pub struct PlannersBenchRow {
+    /// Map size.
+    pub gaussians: usize,
+    /// The planner.
+    pub planner: &'static str,
+    /// Median seconds of a plan (of 3, each after a small map change).
+    pub plan: f64,
+    /// Candidates the last plan compared.
+    pub candidates: usize,
+    /// What the last plan decided ("go", or the failure or end).
+    pub outcome: String,
+}
+
+/// Times a plan of each planner (rtguide, fbe, agslam with `agslam_candidates` goals) over
+/// [`clutter_lot`] maps: each planner first sees eight depth frames rendered from the map (and
+/// a flat floor) around the start (a look around), then plans three times after small map
+/// changes.
+pub fn bench_planners(counts: &[usize], agslam_candidates: usize) -> Vec<PlannersBenchRow> {
+    use autonomy::drive::Pose2;
+    use autonomy::explore::agslam::{AgslamConfig, AgslamPlanner};
+    use autonomy::explore::executor::{CollisionEngine, ExecutorConfig};
+    use autonomy::explore::fbe::{FbeConfig, FbePlanner};
+    use autonomy::explore::{Decision, Observation, Planner};
+    use autonomy::planner::information::CameraMount;
+    use autonomy::planner::{PlannerConfig, RtGuidePlanner};
+    let mount = CameraMount::default();
+    let mut rows = Vec::new();
+    for &n in counts {
+        let mut map = clutter_lot(n, 7);
+        let planners: Vec<Box<dyn Planner>> = vec![
+            Box::new(RtGuidePlanner::new(
+                PlannerConfig::default(),
+                CollisionEngine::Grid,
+            )),
+            Box::new(FbePlanner::new(
+                FbeConfig::default(),
+                ExecutorConfig::default(),
+                CollisionEngine::Grid,
+            )),
+            Box::new(AgslamPlanner::new(
+                AgslamConfig {
+                    candidates: agslam_candidates,
+                    ..AgslamConfig::default()
+                },
+                mount,
+                ExecutorConfig::default(),
+                CollisionEngine::Grid,
+            )),
+        ];
+        for mut planner in planners {
+            let robot = Pose2 {
+                x: 0.0,
+                y: 0.0,
+                theta: 0.3,
+            };
+            for k in 0..8 {
+                let pose = Pose2 {
+                    theta: 0.3 + std::f64::consts::FRAC_PI_4 * f64::from(k),
+                    ..robot
+                };
+                let camera = mount.camera_at(&pose);
+                let mut depth = match autonomy::splat::cpu::render(&map.gaussians, &camera) {
+                    Ok(r) => r.images.depth,
+                    Err(_) => vec![0.0; mount.intrinsics.pixel_count()],
+                };
+                // The lot has no floor Gaussians: rays below the horizon end on the floor.
+                let k = &mount.intrinsics;
+                for (p, d) in depth.iter_mut().enumerate() {
+                    let y = (((p / k.width as usize) as f64) - k.cy) / k.fy;
+                    let floor = if y > 1e-6 {
+                        mount.height / y
+                    } else {
+                        f64::INFINITY
+                    };
+                    if floor <= mount.range && (*d <= 0.0 || f64::from(*d) > floor) {
+                        *d = floor as f32;
+                    }
+                }
+                planner.observe(
+                    &Observation {
+                        depth: &depth,
+                        camera: &camera,
+                        max_range: mount.range,
+                        robot: pose,
+                    },
+                    &map,
+                );
+            }
+            // The frontier planners open with a held look around; the plans after it count.
+            let _ = planner.plan(&map, robot);
+            let mut times = Vec::new();
+            let mut last = None;
+            for k in 0..3 {
+                for i in (k..map.len()).step_by(100) {
+                    map.gaussians.means[i][0] += 0.002;
+                    map.uncertainty[i] = 0.002;
+                }
+                let start = Instant::now();
+                last = Some(planner.plan(&map, robot));
+                times.push(start.elapsed().as_secs_f64());
+            }
+            times.sort_by(f64::total_cmp);
+            let (candidates, outcome) = match last {
+                Some(Decision::Go(p)) => (p.candidates, "go".to_owned()),
+                Some(Decision::Fail(f)) => (0, f.kind().to_owned()),
+                Some(Decision::Done(reason)) => (0, reason),
+                None => (0, String::new()),
+            };
+            rows.push(PlannersBenchRow {
+                gaussians: n,
+                planner: planner.name(),
+                plan: times[times.len() / 2],
+                candidates,
+                outcome,
+            });
+        }
+    }
+    rows
+}

@@ -168,6 +168,8 @@ enum BenchTarget {
     /// Full RT-GuIDE plans over 1e4-3e6 Gaussians of clutter per collision engine, and
     /// scoring 500 viewpoints over 1e6 Gaussians.
     Plan,
+    /// A plan of each planner (rtguide, fbe, agslam) over 1e4-1e6 Gaussians of clutter.
+    Planners,
     /// World generation per kind (4 seeds each), and `world import` of 1e5- and 1e6-triangle
     /// scenes (a suite world exported and subdivided) with the colliders it builds.
     World,
@@ -427,6 +429,22 @@ fn run(command: Command) -> Result<Option<u8>> {
                     score * 1e6 / 500.0,
                     brute * 1e3
                 );
+                Ok(())
+            }
+            BenchTarget::Planners => {
+                let candidates = autonomy::explore::agslam::AgslamConfig::default().candidates;
+                println!("| Gaussians | planner | plan ms (median of 3) | candidates | outcome |");
+                println!("|---:|---|---:|---:|---|");
+                for r in splatloop::bench::bench_planners(&gaussians, candidates) {
+                    println!(
+                        "| {} | {} | {:.1} | {} | {} |",
+                        r.gaussians,
+                        r.planner,
+                        r.plan * 1e3,
+                        r.candidates,
+                        r.outcome
+                    );
+                }
                 Ok(())
             }
             BenchTarget::World => {

@@ -65,7 +65,9 @@ pub struct AgslamConfig {
     pub path_pose_weight: f64,
     /// Weight of the path's goal score (30).
     pub goal_weight: f64,
-    /// Temporary Gaussians per frontier cell (200).
+    /// Temporary Gaussians per frontier cell (200 in their code; 50 by default: with 200 a
+    /// frontier of a few hundred cells puts 10^5 Gaussians into every view and the plan
+    /// overruns the period, BENCHMARKS.md).
     pub temporary_per_cell: usize,
     /// Radius of a temporary Gaussian, metres ("tiny").
     pub temporary_radius: f32,
@@ -95,7 +97,7 @@ impl Default for AgslamConfig {
             information_every: 5,
             path_pose_weight: 0.2,
             goal_weight: 30.0,
-            temporary_per_cell: 200,
+            temporary_per_cell: 50,
             temporary_radius: 0.01,
             resolution_divisor: 4,
             train: TrainMode::Incremental,
@@ -603,32 +605,74 @@ impl AgslamPlanner {
         );
         let train = self.train_for(map);
 
-        // Candidates: around the cluster FBE would choose, or refinement goals without one.
-        let frontier_cells: Vec<usize> = view
-            .clusters
-            .iter()
-            .flat_map(|c| c.cells.iter().copied())
-            .collect();
+        // Candidates: around the best-ranked cluster (FBE's rule) that has goal poses, or
+        // refinement goals when no frontier is left.
         let ranked = frontier::ranked(&view.grid, &view.clusters, [start.x, start.y]);
-        let mut goals = match ranked.first() {
-            Some((best, _)) => view.sample_goals(
-                view.clusters[*best].centroid,
+        let mut goals = Vec::new();
+        let mut centre = [start.x, start.y];
+        for (i, _) in &ranked {
+            let c = view.clusters[*i].centroid;
+            goals = view.sample_goals(
+                c,
                 self.config.candidates,
                 fc.goal_radius,
                 fc.goal_clearance,
                 &mut self.rng,
-            ),
-            None => self.refinement_goals(map, &train, &view),
-        };
+            );
+            goals.retain(|g| self.executor.is_free(g));
+            if !goals.is_empty() {
+                centre = c;
+                break;
+            }
+        }
+        if ranked.is_empty() {
+            goals = self.refinement_goals(map, &train, &view);
+        }
         goals.extend(self.goal.iter().copied());
         goals.extend(self.previous.iter().copied());
         goals.retain(|g| view.admits([g.x, g.y], fc.goal_clearance) && self.executor.is_free(g));
         if goals.is_empty() {
             return Decision::Fail(super::PlanFailure::GoalUnreachable);
         }
+        // Temporary Gaussians only where a candidate or path view can see them: within the
+        // sensor's range (plus the goals' spread) of the robot or the chosen cluster.
+        let reach = self.mount.range + 2.0 * fc.goal_radius[1];
+        let frontier_cells: Vec<usize> = view
+            .clusters
+            .iter()
+            .flat_map(|c| c.cells.iter().copied())
+            .filter(|c| {
+                let p = view.grid.centre(*c);
+                (p[0] - start.x).hypot(p[1] - start.y) <= reach
+                    || (p[0] - centre[0]).hypot(p[1] - centre[1]) <= reach
+            })
+            .collect();
         let t_setup = Instant::now();
-        let gaussians = self.with_temporary(map, &view.grid, &frontier_cells);
-        let mut train_all = train.clone();
+        // Every view of this plan lies within `reach` of the robot or the cluster: the map's
+        // Gaussians beyond sensor range of both are culled once here, not in every view.
+        let margin = self.mount.range + 0.5;
+        let path_reach = self.config.action_length * self.config.path_actions as f64;
+        let (lo, hi) = goals.iter().fold(
+            ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+            |(lo, hi), g| {
+                (
+                    [lo[0].min(g.x - margin), lo[1].min(g.y - margin)],
+                    [hi[0].max(g.x + margin), hi[1].max(g.y + margin)],
+                )
+            },
+        );
+        let near = |m: &[f32; 3]| {
+            let (x, y) = (f64::from(m[0]), f64::from(m[1]));
+            (x - start.x).hypot(y - start.y) <= path_reach + margin
+                || (x >= lo[0] && x <= hi[0] && y >= lo[1] && y <= hi[1])
+        };
+        let local: Vec<u32> = (0..map.len() as u32)
+            .filter(|i| near(&map.gaussians.means[*i as usize]))
+            .collect();
+        let local_map = GaussianMap::new(subset(&map.gaussians, &local), vec![0.0; local.len()]);
+        let gaussians = self.with_temporary(&local_map, &view.grid, &frontier_cells);
+        let mut train_all: Vec<[f32; FISHER_PARAMETERS]> =
+            local.iter().map(|i| train[*i as usize]).collect();
         train_all.resize(gaussians.len(), [0.0; FISHER_PARAMETERS]);
         let with_pose = self.config.pose_weight != 0.0;
         let mut scored: Vec<Scored> = goals
@@ -676,7 +720,7 @@ impl AgslamPlanner {
         tracing::debug!(
             "agslam: {} Gaussians ({} temporary), {} goals in {:.3} s, {} paths in {:.3} s",
             gaussians.len(),
-            gaussians.len() - map.len(),
+            gaussians.len() - local.len(),
             scored.len(),
             (t_goals - t_setup).as_secs_f64(),
             scored.len().min(self.config.paths),

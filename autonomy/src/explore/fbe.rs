@@ -64,8 +64,11 @@ pub struct FrontierView {
     pub grid: ClassGrid,
     /// The robot's opened free component.
     pub free: Vec<bool>,
-    /// Distance to the nearest cell not in `free`, metres.
+    /// Distance to the nearest cell not in `free`, metres (goals need it).
     pub clearance: Vec<f64>,
+    /// Distance to the nearest occupied cell, metres (paths need it: unknown cells next to
+    /// the robot, which its camera has not looked at yet, are no obstacle).
+    pub obstacle_clearance: Vec<f64>,
     /// Path lengths from the robot over passable cells, metres.
     pub distance: Vec<f64>,
     parent: Vec<usize>,
@@ -74,20 +77,27 @@ pub struct FrontierView {
 }
 
 impl FrontierView {
-    /// The view from `robot`; cells within `footprint` of it are passable whatever their
-    /// clearance, so a robot next to a wall can leave.
+    /// The view from `robot`: paths cross free cells `path_clearance` from anything occupied;
+    /// cells within `footprint` of the robot are passable whatever their clearance, so a robot
+    /// next to a wall can leave.
     pub fn new(grid: ClassGrid, robot: Pose2, path_clearance: f64, footprint: f64) -> Self {
         let here = [robot.x, robot.y];
         let free = frontier::reachable_free(&grid, here);
         let cells = frontier::frontier_cells(&grid, &free);
         let clusters = frontier::clusters(&grid, &cells);
         let clearance = frontier::clearance(&grid, &free);
+        let not_occupied: Vec<bool> = grid
+            .classes
+            .iter()
+            .map(|c| *c != super::evidence::CellClass::Occupied)
+            .collect();
+        let obstacle_clearance = frontier::clearance(&grid, &not_occupied);
         let near = |c: usize| {
             let p = grid.centre(c);
             (p[0] - here[0]).hypot(p[1] - here[1]) <= footprint + grid.cell
         };
         let passable: Vec<bool> = (0..grid.len())
-            .map(|c| free[c] && (clearance[c] >= path_clearance || near(c)))
+            .map(|c| free[c] && (obstacle_clearance[c] >= path_clearance || near(c)))
             .collect();
         let source = grid.cell_of(here).filter(|c| passable[*c]).or_else(|| {
             (0..grid.len()).filter(|c| passable[*c]).min_by(|a, b| {
@@ -108,6 +118,7 @@ impl FrontierView {
             grid,
             free,
             clearance,
+            obstacle_clearance,
             distance,
             parent,
             clusters,
