@@ -36,7 +36,7 @@ impl UnicycleCommand {
     pub const STOP: UnicycleCommand = UnicycleCommand { v: 0.0, w: 0.0 };
 }
 
-/// The robot's velocity limits (DESIGN.md: v in [0, 0.6] m/s, |w| <= 0.9 rad/s; the unicycle
+/// The robot's velocity limits (v in [0, 0.6] m/s, |w| <= 0.9 rad/s; the unicycle
 /// does not reverse).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct DriveLimits {

@@ -1,4 +1,4 @@
-//! AG-SLAM's planner (`papers/ag-slam.txt` eqs 7-17, and its authors' code where the paper is
+//! AG-SLAM's planner (the AG-SLAM paper's eqs 7-17, and its authors' code where the paper is
 //! silent): candidate goal poses around the frontier cluster FBE would choose, each scored by
 //! its expected information gain EIG = sum H_cand / (H_train + lambda) over the diagonal Fisher
 //! of the map's Gaussians plus temporary Gaussians in frontier space, by how well the view
