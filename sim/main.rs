@@ -190,6 +190,10 @@ struct RunArgs {
     /// (the squared norm: the paper's Table II ablation).
     #[arg(long, default_value = "l2")]
     rtguide_uncertainty: String,
+    /// RT-GuIDE: seconds of each plan the robot drives before the next plan may replace it
+    /// (0: the paper's replanning every second; more is a flagged extension).
+    #[arg(long, default_value_t = 0.0)]
+    rtguide_commit: f64,
     /// agslam: weight of the localisation term log det(J^T J) in the goal score (the
     /// authors' code's 0.5; 0 is the paper's Table 3 ablation).
     #[arg(long, default_value_t = 0.5)]
@@ -630,6 +634,7 @@ fn run_run(args: RunArgs) -> Result<Option<u8>> {
                 "sq" => autonomy::mapping::UncertaintyNorm::Sq,
                 other => anyhow::bail!("unknown --rtguide-uncertainty {other:?}; use l2 or sq"),
             },
+            rtguide_commit: args.rtguide_commit,
             pose_weight: args.pose_weight,
             agslam_candidates: args.agslam_candidates,
             agslam_train: match args.agslam_train.as_str() {

@@ -74,6 +74,9 @@ pub struct PlannerOptions {
     /// RT-GuIDE's uncertainty: l2 (the paper's) or sq (its Table II ablation). The mapper
     /// applies it, so it is set for every planner but changes only rtguide's choices.
     pub rtguide_uncertainty: UncertaintyNorm,
+    /// RT-GuIDE: seconds of each plan driven before the next may replace it (0, the paper's
+    /// replanning every period; more is a flagged extension).
+    pub rtguide_commit: f64,
     /// agslam: weight of the localisation term log det(J^T J) (0.5, the authors' code; 0 is
     /// their Table 3 ablation).
     pub pose_weight: f64,
@@ -87,6 +90,7 @@ impl Default for PlannerOptions {
     fn default() -> Self {
         PlannerOptions {
             rtguide_uncertainty: UncertaintyNorm::L2,
+            rtguide_commit: 0.0,
             pose_weight: AgslamConfig::default().pose_weight,
             agslam_candidates: AgslamConfig::default().candidates,
             agslam_train: TrainMode::Incremental,
@@ -119,6 +123,13 @@ pub fn build(
             let mut config = PlannerConfig::default();
             config.mount.intrinsics = context.intrinsics;
             config.mount.range = context.range;
+            if !(options.rtguide_commit.is_finite() && options.rtguide_commit >= 0.0) {
+                return Err(crate::error::SimError::InvalidArgument {
+                    what: "--rtguide-commit",
+                    detail: format!("{}; give seconds, 0 or more", options.rtguide_commit),
+                });
+            }
+            config.commit_seconds = options.rtguide_commit;
             Box::new(RtGuidePlanner::new(config, CollisionEngine::Grid))
         }
         PlannerKind::Fbe => Box::new(FbePlanner::new(

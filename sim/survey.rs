@@ -370,7 +370,7 @@ impl Planner for SurveyPlanner {
             guidance: Vec::new(),
             score: 0.0,
             candidates: 1,
-            hold: false,
+            commit: 0.0,
         })
     }
 }

@@ -636,7 +636,10 @@ fn every_planner_fails_with_a_recovery_when_it_starts_inside_an_obstacle() {
         // The frontier planners begin with a look around; the next plan is the real one.
         let mut decision = planner.plan(&map, start);
         if let Decision::Go(plan) = &decision {
-            assert!(plan.hold, "{name}: the first plan is a held look around");
+            assert!(
+                plan.commit.is_infinite(),
+                "{name}: the first plan is a held look around"
+            );
             decision = planner.plan(&map, start);
         }
         match decision {
@@ -673,4 +676,36 @@ fn every_planner_stays_within_the_drive_limits_and_repeats_exactly() {
         assert_eq!(runs[0].commands, runs[1].commands, "{name} repeats");
         assert_eq!(runs[0].poses, runs[1].poses, "{name} repeats");
     }
+}
+
+#[test]
+fn a_schedule_holds_for_its_commitment_and_recoveries_to_their_end() {
+    use autonomy::explore::schedule::Schedule;
+    use autonomy::explore::Plan;
+    let u = autonomy::drive::UnicycleCommand { v: 0.3, w: 0.1 };
+    let plan = |commit: f64| Plan {
+        commands: vec![u; 5],
+        period: 1.0,
+        states: Vec::new(),
+        target: None,
+        guidance: Vec::new(),
+        score: 0.0,
+        candidates: 1,
+        commit,
+    };
+    let replaced = Schedule::from_plan(&plan(0.0), 10.0);
+    assert!(!replaced.holding_at(10.0));
+    let committed = Schedule::from_plan(&plan(2.0), 10.0);
+    assert!(committed.holding_at(11.99) && !committed.holding_at(12.0));
+    let held = Schedule::from_plan(&plan(f64::INFINITY), 10.0);
+    assert!(held.holding_at(14.99) && !held.holding_at(15.0));
+    let limits = DriveLimits::default();
+    let back_off = Schedule::recovery(Recovery::BackOff, 3.0, 0.0, Some(1.0), &limits);
+    assert!(back_off.holding_at(back_off.end() - 1e-6) && !back_off.holding_at(back_off.end()));
+    assert!(back_off.commands.iter().all(|c| limits.admits(*c)));
+    // The back-off turns to the heading given, then drives 0.15 m that way.
+    let end = back_off.predict(Pose2::default(), 3.0, back_off.end() - 3.0);
+    assert!((end.theta - 1.0).abs() < 0.1, "{end:?}");
+    let driven = 0.3 * back_off.commands.iter().filter(|c| c.v > 0.0).count() as f64 * 0.1;
+    assert!((driven - 0.15).abs() < 1e-9);
 }

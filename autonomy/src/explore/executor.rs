@@ -226,7 +226,7 @@ impl Executor {
             guidance: path,
             score: -best.cost,
             candidates,
-            hold: false,
+            commit: 0.0,
         })
     }
 
@@ -252,7 +252,7 @@ impl Executor {
             guidance: vec![[robot.x, robot.y]],
             score: 0.0,
             candidates: 1,
-            hold: false,
+            commit: 0.0,
         }
     }
 }

@@ -46,8 +46,9 @@ pub struct Plan {
     pub score: f64,
     /// Candidates the planner compared.
     pub candidates: usize,
-    /// The host follows it to its end before asking again (a look around).
-    pub hold: bool,
+    /// Seconds from its start the host follows it before asking again: 0 replaces it at the
+    /// next think, infinity holds it to its end (a look around).
+    pub commit: f64,
 }
 
 /// What a planner answers when asked for a plan.

@@ -13,9 +13,9 @@ pub struct Schedule {
     pub period: f64,
     /// The commands.
     pub commands: Vec<UnicycleCommand>,
-    /// Runs to its end before the planner is asked again (a recovery manoeuvre, a look
-    /// around): replanning every period would cut it short.
-    pub hold: bool,
+    /// Seconds from `start` it runs before the planner is asked again (infinity for a
+    /// recovery manoeuvre or a look around, which replanning every period would cut short).
+    pub commit: f64,
 }
 
 /// Steps of a recovery manoeuvre, seconds.
@@ -34,7 +34,7 @@ impl Schedule {
             start,
             period: 1.0,
             commands: Vec::new(),
-            hold: false,
+            commit: 0.0,
         }
     }
 
@@ -44,7 +44,7 @@ impl Schedule {
             start,
             period: plan.period,
             commands: plan.commands.clone(),
-            hold: plan.hold,
+            commit: plan.commit,
         }
     }
 
@@ -90,7 +90,7 @@ impl Schedule {
             start,
             period: RECOVERY_TICK,
             commands,
-            hold: true,
+            commit: f64::INFINITY,
         }
     }
 
@@ -99,9 +99,9 @@ impl Schedule {
         self.start + self.period * self.commands.len() as f64
     }
 
-    /// Whether a schedule that holds is still running at `time`.
+    /// Whether the schedule is still within its commitment at `time`.
     pub fn holding_at(&self, time: f64) -> bool {
-        self.hold && time < self.end()
+        time < self.end().min(self.start + self.commit)
     }
 
     /// The command at simulated time `t`: standing still before the start and after the end.

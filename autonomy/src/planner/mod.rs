@@ -58,6 +58,9 @@ pub struct PlannerConfig {
     pub grid_radius_cap: f32,
     /// Cell side of the information grid, metres.
     pub information_cell: f32,
+    /// Seconds of each plan the robot drives before the next plan may replace it (0: the
+    /// paper's replanning every period; a flagged extension, `--rtguide-commit`).
+    pub commit_seconds: f64,
 }
 
 impl Default for PlannerConfig {
@@ -78,6 +81,7 @@ impl Default for PlannerConfig {
             // With boxes fitted to each cell's members, 1 m scored 500 views fastest of
             // 0.35 / 0.5 / 0.7 / 1 / 1.5 / 2 m (BENCHMARKS.md).
             information_cell: 1.0,
+            commit_seconds: 0.0,
         }
     }
 }
@@ -317,6 +321,7 @@ impl crate::explore::Planner for RtGuidePlanner {
             "horizon": c.search.horizon,
             "candidates": c.search.candidates,
             "information_cell": c.information_cell,
+            "commit_seconds": c.commit_seconds,
         })
     }
 
@@ -341,7 +346,7 @@ impl crate::explore::Planner for RtGuidePlanner {
                     guidance: p.guidance,
                     score: p.information,
                     candidates: p.candidates,
-                    hold: false,
+                    commit: self.config.commit_seconds,
                 })
             }
             Err(f) => Decision::Fail(f),
