@@ -194,6 +194,11 @@ struct RunArgs {
     /// (0: the paper's replanning every second; more is a flagged extension).
     #[arg(long, default_value_t = 0.0)]
     rtguide_commit: f64,
+    /// RT-GuIDE: reach a viewpoint along the free space of a 2D evidence grid (built from
+    /// the depth frames) when its straight edge into the graph crosses the map (a flagged
+    /// extension; off is the paper's straight edges).
+    #[arg(long)]
+    rtguide_free_space_edges: bool,
     /// agslam: weight of the localisation term log det(J^T J) in the goal score (the
     /// authors' code's 0.5; 0 is the paper's Table 3 ablation).
     #[arg(long, default_value_t = 0.5)]
@@ -635,6 +640,7 @@ fn run_run(args: RunArgs) -> Result<Option<u8>> {
                 other => anyhow::bail!("unknown --rtguide-uncertainty {other:?}; use l2 or sq"),
             },
             rtguide_commit: args.rtguide_commit,
+            rtguide_free_space_edges: args.rtguide_free_space_edges,
             pose_weight: args.pose_weight,
             agslam_candidates: args.agslam_candidates,
             agslam_train: match args.agslam_train.as_str() {

@@ -77,6 +77,9 @@ pub struct PlannerOptions {
     /// RT-GuIDE: seconds of each plan driven before the next may replace it (0, the paper's
     /// replanning every period; more is a flagged extension).
     pub rtguide_commit: f64,
+    /// RT-GuIDE: reach viewpoints along the free space of an evidence grid when their straight
+    /// edge is blocked (off: the paper's straight edges).
+    pub rtguide_free_space_edges: bool,
     /// agslam: weight of the localisation term log det(J^T J) (0.5, the authors' code; 0 is
     /// their Table 3 ablation).
     pub pose_weight: f64,
@@ -91,6 +94,7 @@ impl Default for PlannerOptions {
         PlannerOptions {
             rtguide_uncertainty: UncertaintyNorm::L2,
             rtguide_commit: 0.0,
+            rtguide_free_space_edges: false,
             pose_weight: AgslamConfig::default().pose_weight,
             agslam_candidates: AgslamConfig::default().candidates,
             agslam_train: TrainMode::Incremental,
@@ -130,6 +134,7 @@ pub fn build(
                 });
             }
             config.commit_seconds = options.rtguide_commit;
+            config.free_space_edges = options.rtguide_free_space_edges;
             Box::new(RtGuidePlanner::new(config, CollisionEngine::Grid))
         }
         PlannerKind::Fbe => Box::new(FbePlanner::new(

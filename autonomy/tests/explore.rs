@@ -709,3 +709,49 @@ fn a_schedule_holds_for_its_commitment_and_recoveries_to_their_end() {
     let driven = 0.3 * back_off.commands.iter().filter(|c| c.v > 0.0).count() as f64 * 0.1;
     assert!((driven - 0.15).abs() < 1e-9);
 }
+
+#[test]
+fn a_free_space_path_goes_through_the_gap_and_keeps_its_clearance() {
+    use autonomy::explore::fbe::FrontierView;
+    // 4 x 3 m of free floor with a wall across x = 2 m and a 1 m gap at y in [1.8, 2.8].
+    let (w, h) = (80, 60);
+    let mut g = ClassGrid::filled([w, h], [0.0, 0.0], 0.05, CellClass::Free);
+    for c in 0..g.len() {
+        let (x, y) = (c % w, c / w);
+        let edge = x == 0 || y == 0 || x == w - 1 || y == h - 1;
+        let wall = (39..=41).contains(&x) && !(36..56).contains(&y);
+        if edge || wall {
+            g.classes[c] = CellClass::Occupied;
+        }
+    }
+    let robot = Pose2 {
+        x: 1.0,
+        y: 0.6,
+        theta: 0.0,
+    };
+    let view = FrontierView::new(g.clone(), robot, 0.3, 0.3);
+    let target = [3.0, 0.6];
+    let path = view.guidance(robot, target);
+    assert!(view.path_length(target).is_finite());
+    // Brute force: every point of the path is at least 0.3 m (less half a cell) from every
+    // occupied cell centre, except within the footprint of the start.
+    let occupied: Vec<[f64; 2]> = (0..g.len())
+        .filter(|c| g.classes[*c] == CellClass::Occupied)
+        .map(|c| g.centre(c))
+        .collect();
+    for p in &path {
+        if (p[0] - robot.x).hypot(p[1] - robot.y) <= 0.35 {
+            continue;
+        }
+        let d = occupied
+            .iter()
+            .map(|o| (o[0] - p[0]).hypot(o[1] - p[1]))
+            .fold(f64::INFINITY, f64::min);
+        assert!(d >= 0.3 - 0.06, "{p:?} is {d:.3} m from the wall");
+    }
+    // It crosses the wall's line inside the gap, and is longer than the straight line.
+    assert!(path
+        .windows(2)
+        .any(|s| s[0][0] < 2.0 && s[1][0] >= 2.0 && (1.8..2.8).contains(&s[1][1])));
+    assert!(view.path_length(target) > 2.0 + 1.0);
+}

@@ -61,7 +61,16 @@ pub struct PlannerConfig {
     /// Seconds of each plan the robot drives before the next plan may replace it (0: the
     /// paper's replanning every period; a flagged extension, `--rtguide-commit`).
     pub commit_seconds: f64,
+    /// Reach viewpoints along the free space of a 2D evidence grid (built from the depth
+    /// frames, as FBE's) when their straight edge into the graph is blocked (off: the paper's
+    /// straight edges; a flagged extension, `--rtguide-free-space-edges`).
+    pub free_space_edges: bool,
 }
+
+/// The robot's footprint radius marked free in the evidence grid, metres.
+const FOOTPRINT: f64 = 0.3;
+/// Clearance from occupied cells of a free-space edge, metres.
+const PATH_CLEARANCE: f64 = 0.3;
 
 impl Default for PlannerConfig {
     fn default() -> Self {
@@ -82,11 +91,14 @@ impl Default for PlannerConfig {
             // 0.35 / 0.5 / 0.7 / 1 / 1.5 / 2 m (BENCHMARKS.md).
             information_cell: 1.0,
             commit_seconds: 0.0,
+            free_space_edges: false,
         }
     }
 }
 
+use crate::explore::evidence::{EvidenceConfig, EvidenceGrid};
 pub use crate::explore::executor::{CollisionEngine, Executor, ExecutorConfig};
+use crate::explore::fbe::FrontierView;
 pub use crate::explore::{PlanFailure, Recovery};
 
 /// RT-GuIDE's plan with its diagnostics: the controls to apply, one per second.
@@ -124,6 +136,8 @@ pub struct RtGuidePlanner {
     target_plans: usize,
     /// Targets the robot has reached.
     visited: Vec<[f64; 2]>,
+    /// The evidence grid of free-space edges (when on).
+    evidence: Option<EvidenceGrid>,
 }
 
 impl RtGuidePlanner {
@@ -139,6 +153,9 @@ impl RtGuidePlanner {
             },
             engine,
         );
+        let evidence = config
+            .free_space_edges
+            .then(|| EvidenceGrid::new(EvidenceConfig::default()));
         let tally = Tally::new(config.region_size);
         let counter = ViewCounter::new(config.mount, config.information_cell);
         RtGuidePlanner {
@@ -150,6 +167,7 @@ impl RtGuidePlanner {
             target: None,
             target_plans: 0,
             visited: Vec::new(),
+            evidence,
         }
     }
 
@@ -162,6 +180,9 @@ impl RtGuidePlanner {
     pub fn plan(&mut self, map: &GaussianMap, robot: Pose2) -> Result<RtGuidePlan, PlanFailure> {
         let t0 = Instant::now();
         self.update(map);
+        if let Some(grid) = &mut self.evidence {
+            grid.set_gaussians(&map.gaussians.means);
+        }
         self.plan_with(robot, t0)
     }
 
@@ -237,6 +258,13 @@ impl RtGuidePlanner {
         // joined to its nearest odometry node by a straight line, which can cross a wall (the
         // viewpoint then lies outside the known space and A* would push into the wall).
         let mut checked = 0;
+        // With free-space edges, a viewpoint whose straight edge is blocked is still reached
+        // along the evidence grid's free space from the robot.
+        let view = self.evidence.as_mut().map(|grid| {
+            grid.mark_free_disc([robot.x, robot.y], FOOTPRINT);
+            FrontierView::new(grid.classes(), robot, PATH_CLEARANCE, FOOTPRINT)
+        });
+        let mut free_path: Option<Vec<[f64; 2]>> = None;
         let (best, path) = loop {
             let (best, path, _) = self
                 .graph
@@ -257,6 +285,12 @@ impl RtGuidePlanner {
             if self.executor.segment_free(from, to, EDGE_STEP) {
                 break (best, path);
             }
+            if let Some(view) = &view {
+                if view.path_length(to).is_finite() {
+                    free_path = Some(view.guidance(robot, to));
+                    break (best, path);
+                }
+            }
             if checked >= MAX_EDGE_CHECKS {
                 return Err(PlanFailure::GoalUnreachable);
             }
@@ -267,9 +301,18 @@ impl RtGuidePlanner {
             previous.is_some_and(|p| (p[0] - target[0]).hypot(p[1] - target[1]) < KEEP_RADIUS);
         self.target_plans = if same { self.target_plans + 1 } else { 1 };
         self.target = Some(target);
-        let mut guidance = vec![[robot.x, robot.y]];
-        guidance.extend(path.iter().map(|i| self.graph.nodes[*i].position));
-        let goal = local_goal(&guidance, cfg.search.horizon).unwrap_or([robot.x, robot.y]);
+        let (guidance, goal) = match free_path {
+            Some(guidance) => {
+                let goal = crate::explore::executor::along(&guidance, cfg.search.horizon);
+                (guidance, goal)
+            }
+            None => {
+                let mut guidance = vec![[robot.x, robot.y]];
+                guidance.extend(path.iter().map(|i| self.graph.nodes[*i].position));
+                let goal = local_goal(&guidance, cfg.search.horizon).unwrap_or([robot.x, robot.y]);
+                (guidance, goal)
+            }
+        };
 
         let t1 = Instant::now();
         let trajectories = self.executor.candidates(robot, goal);
@@ -322,7 +365,15 @@ impl crate::explore::Planner for RtGuidePlanner {
             "candidates": c.search.candidates,
             "information_cell": c.information_cell,
             "commit_seconds": c.commit_seconds,
+            "free_space_edges": c.free_space_edges,
         })
+    }
+
+    fn observe(&mut self, observation: &crate::explore::Observation<'_>, _map: &GaussianMap) {
+        if let Some(grid) = &mut self.evidence {
+            grid.integrate(observation.depth, observation.camera);
+            grid.mark_free_disc([observation.robot.x, observation.robot.y], FOOTPRINT);
+        }
     }
 
     fn plan(&mut self, map: &GaussianMap, start: Pose2) -> crate::explore::Decision {
