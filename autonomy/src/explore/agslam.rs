@@ -562,11 +562,8 @@ impl Planner for AgslamPlanner {
     }
 
     fn observe(&mut self, observation: &Observation<'_>, _map: &GaussianMap) {
-        self.grid.integrate(observation.depth, observation.camera);
-        self.grid.mark_free_disc(
-            [observation.robot.x, observation.robot.y],
-            self.config.frontier.footprint_radius,
-        );
+        self.grid
+            .observe(observation, self.config.frontier.footprint_radius);
         self.latest = Some(*observation.camera);
     }
 

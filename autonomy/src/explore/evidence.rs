@@ -273,6 +273,13 @@ impl EvidenceGrid {
         }
     }
 
+    /// Takes in one camera frame of a robot whose footprint has radius `footprint`: its rays,
+    /// and the footprint marked free.
+    pub fn observe(&mut self, observation: &super::Observation<'_>, footprint: f64) {
+        self.integrate(observation.depth, observation.camera);
+        self.mark_free_disc([observation.robot.x, observation.robot.y], footprint);
+    }
+
     /// Marks the robot's footprint free: the camera never sees the floor under the robot, yet
     /// the robot stands there.
     pub fn mark_free_disc(&mut self, centre: [f64; 2], radius: f64) {

@@ -363,11 +363,7 @@ impl Planner for FbePlanner {
     }
 
     fn observe(&mut self, observation: &Observation<'_>, _map: &GaussianMap) {
-        self.grid.integrate(observation.depth, observation.camera);
-        self.grid.mark_free_disc(
-            [observation.robot.x, observation.robot.y],
-            self.config.footprint_radius,
-        );
+        self.grid.observe(observation, self.config.footprint_radius);
     }
 
     fn plan(&mut self, map: &GaussianMap, start: Pose2) -> Decision {

@@ -371,8 +371,7 @@ impl crate::explore::Planner for RtGuidePlanner {
 
     fn observe(&mut self, observation: &crate::explore::Observation<'_>, _map: &GaussianMap) {
         if let Some(grid) = &mut self.evidence {
-            grid.integrate(observation.depth, observation.camera);
-            grid.mark_free_disc([observation.robot.x, observation.robot.y], FOOTPRINT);
+            grid.observe(observation, FOOTPRINT);
         }
     }
 

@@ -117,9 +117,14 @@ pub fn fisher(render: &Render) -> FisherDiagonal {
         &colour_and_depth(render),
         backward::Mode::Fisher(&chain),
     );
+    by_gaussian(render, &per_splat)
+}
+
+/// Per-splat sums of a Fisher pass indexed like the Gaussians (zero for the culled).
+fn by_gaussian(render: &Render, per_splat: &[([f32; 8], bool)]) -> FisherDiagonal {
     let mut out = vec![[0.0f32; FISHER_PARAMETERS]; render.gaussian_count];
     for (splat, (h, _)) in render.splats.iter().zip(per_splat) {
-        out[splat.index as usize] = h;
+        out[splat.index as usize] = *h;
     }
     out
 }
@@ -146,9 +151,5 @@ pub fn fisher_and_pose(render: &Render) -> (FisherDiagonal, [[f64; 6]; 6]) {
         &colour_and_depth(render),
         backward::Mode::FisherAndPose(&chain),
     );
-    let mut out = vec![[0.0f32; FISHER_PARAMETERS]; render.gaussian_count];
-    for (splat, (h, _)) in render.splats.iter().zip(per_splat) {
-        out[splat.index as usize] = h;
-    }
-    (out, jtj)
+    (by_gaussian(render, &per_splat), jtj)
 }
