@@ -1,4 +1,4 @@
-//! The RT-GuIDE planner (DESIGN.md "RT-GuIDE planner"; `papers/rt-guide.txt` IV-B): regions
+//! The RT-GuIDE planner (DESIGN.md "RT-GuIDE planner"; the RT-GuIDE paper, IV-B): regions
 //! of the map with utility Omega, a topological graph that picks a guidance path with the best
 //! Omega / e^d, a motion-primitive A* toward the path's local goal with every sample point
 //! collision-checked against every Gaussian, and the candidate that sees the most
