@@ -106,6 +106,9 @@ impl Default for AgslamConfig {
     }
 }
 
+/// A goal within the goal tolerance and this close in heading (radians) is reached.
+const REACHED_HEADING: f64 = 0.35;
+
 /// Guards the logarithms of the scores: log 0 would make one empty view decide everything.
 const LOG_FLOOR: f64 = 1e-12;
 
@@ -627,7 +630,16 @@ impl AgslamPlanner {
         }
         goals.extend(self.goal.iter().copied());
         goals.extend(self.previous.iter().copied());
-        goals.retain(|g| view.admits([g.x, g.y], fc.goal_clearance) && self.executor.is_free(g));
+        // A goal the robot already stands at, facing its way, is the view it has: choosing it
+        // again would only stand still (and the progress watch would back the robot off).
+        let tolerance = self.executor.config().search.goal_tolerance;
+        let reached = |g: &Pose2| {
+            start.distance([g.x, g.y]) <= tolerance
+                && crate::drive::wrap_angle(g.theta - start.theta).abs() < REACHED_HEADING
+        };
+        goals.retain(|g| {
+            !reached(g) && view.admits([g.x, g.y], fc.goal_clearance) && self.executor.is_free(g)
+        });
         if goals.is_empty() {
             return Decision::Fail(super::PlanFailure::GoalUnreachable);
         }
