@@ -152,6 +152,77 @@ pub fn contributors(
     Ok(sets)
 }
 
+/// Calls `each` with the screen-space gradients (d/du, d/dv, d/dradius_px, d/dopacity,
+/// d/dcolour (3), d/ddepth) that pixel (x, y) gives each of its contributors, back to front,
+/// for upstream gradients `grads` on (r, g, b, depth, silhouette).
+fn pixel_screen_gradients(
+    projected: &[Projected],
+    x: f64,
+    y: f64,
+    grads: [f64; 5],
+    each: &mut dyn FnMut(&Projected, [f64; 8]),
+) {
+    let (_, contributors, mut t) = composite_pixel(projected, x, y);
+    // Back to front: `behind` is what is composited behind the current Gaussian.
+    let mut behind = [0.0f64; 5];
+    for &slot in contributors.iter().rev() {
+        let g = &projected[slot];
+        let (a, clamped) = alpha(g, x, y);
+        t /= 1.0 - a;
+        let weight = a * t;
+        let values = [g.colour[0], g.colour[1], g.colour[2], g.depth, 1.0];
+        // d out / d alpha = T (value - behind).
+        let mut d_alpha = 0.0;
+        for c in 0..5 {
+            d_alpha += grads[c] * t * (values[c] - behind[c]);
+            behind[c] = a * values[c] + (1.0 - a) * behind[c];
+        }
+        let mut s = [0.0f64; 8];
+        for c in 0..3 {
+            s[4 + c] = grads[c] * weight;
+        }
+        s[7] = grads[3] * weight;
+        if !clamped {
+            // alpha = o exp(-q/2), q = ((x-u)^2 + (y-v)^2) / r^2.
+            let (dx, dy) = (x - g.u, y - g.v);
+            let r2 = g.radius * g.radius;
+            let d_q = -0.5 * a * d_alpha;
+            s[0] = d_q * (-2.0 * dx / r2);
+            s[1] = d_q * (-2.0 * dy / r2);
+            s[2] = d_q * (-2.0 * (dx * dx + dy * dy) / (r2 * g.radius));
+            s[3] = d_alpha * a / g.opacity;
+        }
+        each(g, s);
+    }
+}
+
+/// A Gaussian's screen-space gradients chained to its parameters: mean x, y, z (world),
+/// log-radius, logit-opacity, colour r, g, b.
+fn chain(
+    g: &Projected,
+    s: &[f64; 8],
+    k: &crate::camera::Intrinsics,
+    rotation: &crate::math::UnitQuaternion,
+) -> [f64; 8] {
+    let (px, py, pz) = (g.camera_point.x, g.camera_point.y, g.camera_point.z);
+    let radius = g.radius * pz / k.fx;
+    let d_depth = s[7]
+        - s[0] * k.fx * px / (pz * pz)
+        - s[1] * k.fy * py / (pz * pz)
+        - s[2] * k.fx * radius / (pz * pz);
+    let d_world = rotation * Vector3::new(s[0] * k.fx / pz, s[1] * k.fy / pz, d_depth);
+    [
+        d_world.x,
+        d_world.y,
+        d_world.z,
+        s[2] * k.fx / pz * radius,
+        s[3] * g.opacity * (1.0 - g.opacity),
+        s[4],
+        s[5],
+        s[6],
+    ]
+}
+
 /// Gradients of a loss whose per-pixel gradients are `image_gradients`, in f64 then rounded.
 pub fn backward(
     gaussians: &Gaussians,
@@ -168,63 +239,37 @@ pub fn backward(
     for y in 0..h {
         for x in 0..w {
             let p = y * w + x;
-            let g_colour = [0, 1, 2].map(|c| f64::from(image_gradients.colour[3 * p + c]));
-            let g_depth = f64::from(image_gradients.depth[p]);
-            let g_sil = f64::from(image_gradients.silhouette[p]);
-            let (_, contributors, mut t) = composite_pixel(&projected, x as f64, y as f64);
-            // Back to front: `behind` is what is composited behind the current Gaussian.
-            let mut behind = [0.0f64; 5];
-            for &slot in contributors.iter().rev() {
-                let g = &projected[slot];
-                let (a, clamped) = alpha(g, x as f64, y as f64);
-                t /= 1.0 - a;
-                let weight = a * t;
-                let values = [g.colour[0], g.colour[1], g.colour[2], g.depth, 1.0];
-                let grads = [g_colour[0], g_colour[1], g_colour[2], g_depth, g_sil];
-                // d out / d alpha = T (value - behind).
-                let mut d_alpha = 0.0;
-                for c in 0..5 {
-                    d_alpha += grads[c] * t * (values[c] - behind[c]);
-                    behind[c] = a * values[c] + (1.0 - a) * behind[c];
-                }
-                let s = &mut screen[g.index];
-                touched[g.index] = true;
-                for c in 0..3 {
-                    s[4 + c] += g_colour[c] * weight;
-                }
-                s[7] += g_depth * weight;
-                if clamped {
-                    continue;
-                }
-                // alpha = o exp(-q/2), q = ((x-u)^2 + (y-v)^2) / r^2.
-                let (dx, dy) = (x as f64 - g.u, y as f64 - g.v);
-                let r2 = g.radius * g.radius;
-                let d_q = -0.5 * a * d_alpha;
-                s[0] += d_q * (-2.0 * dx / r2);
-                s[1] += d_q * (-2.0 * dy / r2);
-                s[2] += d_q * (-2.0 * (dx * dx + dy * dy) / (r2 * g.radius));
-                s[3] += d_alpha * a / g.opacity;
-            }
+            let grads = [
+                f64::from(image_gradients.colour[3 * p]),
+                f64::from(image_gradients.colour[3 * p + 1]),
+                f64::from(image_gradients.colour[3 * p + 2]),
+                f64::from(image_gradients.depth[p]),
+                f64::from(image_gradients.silhouette[p]),
+            ];
+            pixel_screen_gradients(
+                &projected,
+                x as f64,
+                y as f64,
+                grads,
+                &mut |g, per_pixel| {
+                    touched[g.index] = true;
+                    for (acc, v) in screen[g.index].iter_mut().zip(per_pixel) {
+                        *acc += v;
+                    }
+                },
+            );
         }
     }
     // Chain the screen-space gradients to the parameters.
     let mut gradients = Gradients::zeros(n);
     let rotation = camera.world_from_camera.rotation;
     for g in &projected {
-        let s = screen[g.index];
-        let (px, py, pz) = (g.camera_point.x, g.camera_point.y, g.camera_point.z);
-        let radius = g.radius * pz / k.fx;
-        let d_depth = s[7]
-            - s[0] * k.fx * px / (pz * pz)
-            - s[1] * k.fy * py / (pz * pz)
-            - s[2] * k.fx * radius / (pz * pz);
-        let d_camera = Vector3::new(s[0] * k.fx / pz, s[1] * k.fy / pz, d_depth);
-        let d_world = rotation * d_camera;
+        let d = chain(g, &screen[g.index], k, &rotation).map(|v| v as f32);
         let i = g.index;
-        gradients.means[i] = [d_world.x as f32, d_world.y as f32, d_world.z as f32];
-        gradients.log_radii[i] = (s[2] * k.fx / pz * radius) as f32;
-        gradients.logit_opacities[i] = (s[3] * g.opacity * (1.0 - g.opacity)) as f32;
-        gradients.colours[i] = [s[4] as f32, s[5] as f32, s[6] as f32];
+        gradients.means[i] = [d[0], d[1], d[2]];
+        gradients.log_radii[i] = d[3];
+        gradients.logit_opacities[i] = d[4];
+        gradients.colours[i] = [d[5], d[6], d[7]];
     }
     gradients.touched = (0..n as u32).filter(|&i| touched[i as usize]).collect();
     Ok(gradients)
@@ -242,57 +287,15 @@ pub fn fisher(
     let k = &camera.intrinsics;
     let rotation = camera.world_from_camera.rotation;
     let mut h_out = vec![[0.0f64; FISHER_PARAMETERS]; gaussians.len()];
+    let grads = [1.0, 1.0, 1.0, 1.0, 0.0];
     for y in 0..h {
         for x in 0..w {
-            let (_, contributors, mut t) = composite_pixel(&projected, x as f64, y as f64);
-            let mut behind = [0.0f64; 5];
-            let grads = [1.0, 1.0, 1.0, 1.0, 0.0];
-            for &slot in contributors.iter().rev() {
-                let g = &projected[slot];
-                let (a, clamped) = alpha(g, x as f64, y as f64);
-                t /= 1.0 - a;
-                let weight = a * t;
-                let values = [g.colour[0], g.colour[1], g.colour[2], g.depth, 1.0];
-                let mut d_alpha = 0.0;
-                for c in 0..5 {
-                    d_alpha += grads[c] * t * (values[c] - behind[c]);
-                    behind[c] = a * values[c] + (1.0 - a) * behind[c];
-                }
-                let mut s = [0.0f64; 8];
-                for c in 0..3 {
-                    s[4 + c] = grads[c] * weight;
-                }
-                s[7] = grads[3] * weight;
-                if !clamped {
-                    let (dx, dy) = (x as f64 - g.u, y as f64 - g.v);
-                    let r2 = g.radius * g.radius;
-                    let d_q = -0.5 * a * d_alpha;
-                    s[0] = d_q * (-2.0 * dx / r2);
-                    s[1] = d_q * (-2.0 * dy / r2);
-                    s[2] = d_q * (-2.0 * (dx * dx + dy * dy) / (r2 * g.radius));
-                    s[3] = d_alpha * a / g.opacity;
-                }
-                let (px, py, pz) = (g.camera_point.x, g.camera_point.y, g.camera_point.z);
-                let radius = g.radius * pz / k.fx;
-                let d_depth = s[7]
-                    - s[0] * k.fx * px / (pz * pz)
-                    - s[1] * k.fy * py / (pz * pz)
-                    - s[2] * k.fx * radius / (pz * pz);
-                let d_world = rotation * Vector3::new(s[0] * k.fx / pz, s[1] * k.fy / pz, d_depth);
-                let per_pixel = [
-                    d_world.x,
-                    d_world.y,
-                    d_world.z,
-                    s[2] * k.fx / pz * radius,
-                    s[3] * g.opacity * (1.0 - g.opacity),
-                    s[4],
-                    s[5],
-                    s[6],
-                ];
+            pixel_screen_gradients(&projected, x as f64, y as f64, grads, &mut |g, s| {
+                let per_pixel = chain(g, &s, k, &rotation);
                 for (acc, d) in h_out[g.index].iter_mut().zip(per_pixel) {
                     *acc += d * d;
                 }
-            }
+            });
         }
     }
     Ok(h_out)
