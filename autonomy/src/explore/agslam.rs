@@ -405,15 +405,14 @@ impl AgslamPlanner {
         self.keyframes.push(camera);
     }
 
-    /// The map plus temporary Gaussians in frontier space, so views of unknown space carry
-    /// information (their H_train is 0).
+    /// `gaussians` plus temporary Gaussians in frontier space, so views of unknown space
+    /// carry information (their H_train is 0).
     fn with_temporary(
         &mut self,
-        map: &GaussianMap,
+        mut all: Gaussians,
         grid: &ClassGrid,
         cells: &[usize],
     ) -> Gaussians {
-        let mut all = map.gaussians.clone();
         let top = self.mount.height as f32;
         for &c in cells {
             let [x, y] = grid.centre(c);
@@ -678,8 +677,8 @@ impl AgslamPlanner {
         let local: Vec<u32> = (0..map.len() as u32)
             .filter(|i| near(&map.gaussians.means[*i as usize]))
             .collect();
-        let local_map = GaussianMap::new(subset(&map.gaussians, &local), vec![0.0; local.len()]);
-        let gaussians = self.with_temporary(&local_map, &view.grid, &frontier_cells);
+        let gaussians =
+            self.with_temporary(subset(&map.gaussians, &local), &view.grid, &frontier_cells);
         let mut train_all: Vec<[f32; FISHER_PARAMETERS]> =
             local.iter().map(|i| train[*i as usize]).collect();
         train_all.resize(gaussians.len(), [0.0; FISHER_PARAMETERS]);
