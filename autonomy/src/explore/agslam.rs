@@ -261,8 +261,6 @@ pub struct AgslamPlanner {
     latest: Option<PinholeCamera>,
     previous: Vec<Pose2>,
     goal: Option<Pose2>,
-    /// Seconds of the last plan.
-    last_seconds: f64,
 }
 
 fn scaled(k: &Intrinsics, divisor: u32) -> Intrinsics {
@@ -307,18 +305,7 @@ impl AgslamPlanner {
             latest: None,
             previous: Vec::new(),
             goal: None,
-            last_seconds: 0.0,
         }
-    }
-
-    /// Seconds the last plan took.
-    pub fn last_plan_seconds(&self) -> f64 {
-        self.last_seconds
-    }
-
-    /// Keyframes taken.
-    pub fn keyframe_count(&self) -> usize {
-        self.keyframes.len()
     }
 
     fn small(&self, camera: &PinholeCamera) -> PinholeCamera {
@@ -570,10 +557,7 @@ impl Planner for AgslamPlanner {
     }
 
     fn plan(&mut self, map: &GaussianMap, start: Pose2) -> Decision {
-        let t0 = Instant::now();
-        let decision = self.plan_inner(map, start);
-        self.last_seconds = t0.elapsed().as_secs_f64();
-        decision
+        self.plan_inner(map, start)
     }
 }
 

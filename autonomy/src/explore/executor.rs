@@ -86,11 +86,6 @@ impl Executor {
         &self.config
     }
 
-    /// Gaussians the executor treats as obstacles.
-    pub fn obstacle_count(&self) -> usize {
-        self.mirror.len()
-    }
-
     /// Brings the copy of the map up to date, touching only the Gaussians that changed, and
     /// returns those changes (planners that keep their own derived state apply them too).
     pub fn sync(&mut self, map: &GaussianMap) -> &[Change] {

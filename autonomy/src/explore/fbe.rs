@@ -316,11 +316,6 @@ impl FbePlanner {
         }
     }
 
-    /// The evidence grid.
-    pub fn evidence(&self) -> &EvidenceGrid {
-        &self.grid
-    }
-
     /// Chooses a goal: the best open cluster by count / (d + 20) that has a goal pose with a
     /// path; within it the sampled pose with the shortest path.
     fn choose(&mut self, view: &FrontierView, robot: Pose2) -> Option<Goal> {
