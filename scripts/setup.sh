@@ -14,11 +14,12 @@ say() { printf '\n==> %s\n' "$*"; }
 #   mesa-vulkan-drivers libvulkan1
 #                           lavapipe, the software Vulkan adapter the wgpu parity tests run on
 #   pkg-config python3      build helpers
+#   python3-venv            the .venv that holds Ray, the cluster backend of `splatloop sweep`
 packages=(
   libmujoco-dev libclang-dev
   libegl-dev libegl1 libegl-mesa0 libgl1-mesa-dri libgl-dev
   mesa-vulkan-drivers libvulkan1
-  pkg-config python3 ca-certificates
+  pkg-config python3 python3-venv ca-certificates
 )
 missing=()
 for p in "${packages[@]}"; do
@@ -37,6 +38,17 @@ fi
 if ! command -v cargo >/dev/null 2>&1; then
   echo "error: cargo not found. Install Rust (rustup, or Debian's cargo) and run this script again." >&2
   exit 1
+fi
+
+# Ray (`sweep --backend ray`) from PyPI into .venv, pinned so every worker runs the same one;
+# the sweep finds .venv/bin/python by itself (or SPLATLOOP_PYTHON / --ray-python).
+RAY_VERSION=2.40.0
+if ! .venv/bin/python -c "import ray, sys; sys.exit(ray.__version__ != '$RAY_VERSION')" 2>/dev/null; then
+  say "installing Ray $RAY_VERSION into .venv"
+  python3 -m venv .venv
+  .venv/bin/pip install --quiet --disable-pip-version-check "ray==$RAY_VERSION"
+else
+  say "Ray $RAY_VERSION already in .venv"
 fi
 
 say "fetching Rust dependencies"

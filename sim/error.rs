@@ -90,6 +90,30 @@ pub enum SimError {
         /// What is wrong.
         detail: String,
     },
+    /// A JSON file splatloop wrote earlier (sweep.json, metrics.json) that does not parse.
+    #[error("cannot parse {path}")]
+    BadJson {
+        /// The file.
+        path: PathBuf,
+        /// The parser's reason.
+        source: serde_json::Error,
+    },
+    /// A rerun of a sweep with settings other than its sweep.json's.
+    #[error("{path} holds a sweep with other settings ({detail}); rerun with the same settings to resume it, or use a new --out")]
+    SweepChanged {
+        /// The sweep.json.
+        path: PathBuf,
+        /// The first setting that differs.
+        detail: String,
+    },
+    /// An episode of a sweep that cannot run yet or cannot be run by this backend.
+    #[error("episode {index} of the sweep: {detail}")]
+    SweepEpisode {
+        /// Its index in the sweep's order.
+        index: usize,
+        /// Why not, and what to do.
+        detail: String,
+    },
 }
 
 /// Shorthand for host results.

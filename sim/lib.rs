@@ -5,6 +5,7 @@
 pub mod bench;
 pub mod bench_worlds;
 pub mod camera;
+mod canvas;
 pub mod controls;
 pub mod dataset;
 pub mod egl;
@@ -21,6 +22,7 @@ pub mod robot;
 pub mod scene;
 pub mod spawn;
 pub mod survey;
+pub mod sweep;
 pub mod world;
 pub mod world_check;
 pub mod worldgen;

@@ -27,6 +27,10 @@ enum Command {
     /// Explore a world on its own: map it online and plan (RT-GuIDE, or the survey) every tick; write the
     /// dataset, map.ply and metrics.json.
     Run(RunArgs),
+    /// Run worlds x planners x seeds as separate episodes (OUT/WORLD/PLANNER/SEED/), N at a
+    /// time, on a Ray cluster or as a Slurm array; resumable; then results.csv, summary.md
+    /// and the charts.
+    Sweep(SweepArgs),
     /// Drive the robot open-loop through a world and write an RGB-D dataset with exact poses.
     Record(RecordArgs),
     /// Score a saved map on hidden views of a world (PSNR, SSIM, depth errors, coverage); with
@@ -186,6 +190,104 @@ struct RunArgs {
     /// compare with). All but the survey drive through the same executor.
     #[arg(long, default_value = "rtguide")]
     planner: String,
+    /// Simulated seconds to explore.
+    #[arg(long, default_value_t = 60.0)]
+    budget: f64,
+    /// Seed (sensor noise, the hidden test set and a random spawn).
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    #[command(flatten)]
+    options: EpisodeOptions,
+    /// Episode folder (must be new or empty).
+    #[arg(long, default_value = "runs/episode")]
+    out: PathBuf,
+    /// Replace the output folder if it holds an earlier episode.
+    #[arg(long)]
+    overwrite: bool,
+}
+
+#[derive(clap::Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+struct SweepArgs {
+    #[command(subcommand)]
+    step: Option<SweepStep>,
+    /// Worlds: files and quoted shell patterns, comma-separated ("worlds/suite/*.xml").
+    #[arg(long, value_delimiter = ',', required = true)]
+    worlds: Vec<String>,
+    /// Planners, comma-separated (rtguide, fbe, agslam, survey).
+    #[arg(long, value_delimiter = ',', required = true)]
+    planners: Vec<String>,
+    /// Seeds: a list (1,2,5), an inclusive range (1..4), or both (1..3,7).
+    #[arg(long, required = true)]
+    seeds: String,
+    /// Simulated seconds of every episode.
+    #[arg(long, conflicts_with = "budget_survey_factor")]
+    budget: Option<f64>,
+    /// Run the survey first in each world and seed, then give every planner F times the
+    /// survey's time there (the comparison protocol).
+    #[arg(long, value_name = "F")]
+    budget_survey_factor: Option<f64>,
+    /// The survey's own budget with --budget-survey-factor, simulated seconds.
+    #[arg(long, default_value_t = 900.0)]
+    survey_budget: f64,
+    #[command(flatten)]
+    options: EpisodeOptions,
+    /// The sweep's folder (a rerun with the same settings resumes it).
+    #[arg(long, required = true)]
+    out: Option<PathBuf>,
+    /// Episodes at once (local backend; with ray, the most in flight).
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// local (child processes here), ray (a task per episode on a Ray cluster) or slurm
+    /// (write an sbatch array script and its submit script; runs nothing).
+    #[arg(long, value_enum, default_value = "local")]
+    backend: SweepBackend,
+    /// Ray cluster address (`ray start --head` prints it); none starts a local Ray for the
+    /// sweep.
+    #[arg(long)]
+    ray_address: Option<String>,
+    /// The Python with Ray (default: .venv/bin/python of the checkout, as scripts/setup.sh
+    /// makes it, else python3).
+    #[arg(long, env = "SPLATLOOP_PYTHON")]
+    ray_python: Option<PathBuf>,
+    /// CPUs each episode reserves (Ray's num_cpus, Slurm's --cpus-per-task).
+    #[arg(long, default_value_t = 1)]
+    cpus_per_episode: usize,
+}
+
+#[derive(Subcommand)]
+enum SweepStep {
+    /// Run one episode of the sweep in OUT by its index (a Slurm array task's command);
+    /// nothing when it is already complete.
+    Episode {
+        /// The sweep's folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// The episode's index (results.csv's `index`).
+        #[arg(long)]
+        index: usize,
+    },
+    /// Gather results.csv, summary.md, summary.png and coverage_over_time.png from the
+    /// episodes in OUT (what a sweep does when it ends).
+    Collect {
+        /// The sweep's folder.
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SweepBackend {
+    Local,
+    Ray,
+    Slurm,
+}
+
+/// The options of an episode that a sweep passes on to every one of its episodes (it owns
+/// the world, planner, budget, seed and folder); serialised into sweep.json by their long
+/// names, and turned back into those flags for each episode.
+#[derive(clap::Args, serde::Serialize, serde::Deserialize, Debug, Clone, PartialEq)]
+struct EpisodeOptions {
     /// RT-GuIDE's uncertainty of a Gaussian: l2 (its displacement's norm, the paper's) or sq
     /// (the squared norm: the paper's Table II ablation).
     #[arg(long, default_value = "l2")]
@@ -213,12 +315,6 @@ struct RunArgs {
     /// a settled map).
     #[arg(long, default_value = "incremental")]
     agslam_train: String,
-    /// Simulated seconds to explore.
-    #[arg(long, default_value_t = 60.0)]
-    budget: f64,
-    /// Seed (sensor noise, the hidden test set and a random spawn).
-    #[arg(long, default_value_t = 1)]
-    seed: u64,
     /// Camera frames per simulated second.
     #[arg(long, default_value_t = 5.0)]
     camera_rate: f64,
@@ -230,11 +326,12 @@ struct RunArgs {
     #[arg(long, default_value = "wall")]
     latency: String,
     #[command(flatten)]
+    #[serde(flatten)]
     view: ViewArgs,
     /// Start pose: site (the world's `spawn` site), random (seeded by --seed, anywhere the
     /// robot can reach from the site with 0.6 m of room), or x,y,yaw (metres, radians).
-    #[arg(long, default_value = "site", allow_hyphen_values = true)]
-    spawn: Spawn,
+    #[arg(long, default_value = "site", allow_hyphen_values = true, value_parser = check_spawn)]
+    spawn: String,
     /// Spherical-harmonic degree of map.ply: 0 (compact, read by every viewer) or 3 (zero
     /// f_rest_0..44 added, as graphdeco-inria's reference loader requires by default).
     #[arg(long, default_value_t = 0, value_parser = parse_sh_degree)]
@@ -242,16 +339,15 @@ struct RunArgs {
     /// Hidden test views for the evaluation, sampled in free space (0: skip).
     #[arg(long, default_value_t = 100)]
     test_views: usize,
-    /// Episode folder (must be new or empty).
-    #[arg(long, default_value = "runs/episode")]
-    out: PathBuf,
-    /// Replace the output folder if it holds an earlier episode.
-    #[arg(long)]
-    overwrite: bool,
+}
+
+/// `--spawn` is kept as typed (so a sweep can pass it on) but checked when parsed.
+fn check_spawn(text: &str) -> Result<String, String> {
+    text.parse::<Spawn>().map(|_| text.to_string())
 }
 
 /// The camera size and splat engine of the commands that render a map.
-#[derive(clap::Args)]
+#[derive(clap::Args, serde::Serialize, serde::Deserialize, Debug, Clone, PartialEq)]
 struct ViewArgs {
     /// Splat engine: auto (a hardware GPU if any), cpu or gpu.
     #[arg(long, default_value = "auto")]
@@ -383,6 +479,7 @@ fn run(command: Command) -> Result<Option<u8>> {
     match command {
         Command::Record(args) => done(run_record(args)),
         Command::Run(args) => run_run(args),
+        Command::Sweep(args) => run_sweep(args),
         Command::Eval(args) => done(run_eval(args)),
         Command::Render(args) => done(run_render(args)),
         Command::World(command) => done(run_world(command)),
@@ -619,7 +716,7 @@ fn print_map_bench(
 
 fn run_run(args: RunArgs) -> Result<Option<u8>> {
     use splatloop::episode::{run_episode, Latency, RunConfig};
-    let latency = match args.latency.as_str() {
+    let latency = match args.options.latency.as_str() {
         "wall" => Latency::Wall,
         "none" => Latency::None,
         other => anyhow::bail!("unknown latency model {other:?}; use wall or none"),
@@ -628,36 +725,41 @@ fn run_run(args: RunArgs) -> Result<Option<u8>> {
         world: args.world,
         budget: args.budget,
         seed: args.seed,
-        camera_rate: args.camera_rate,
+        camera_rate: args.options.camera_rate,
         think_period: 1.0,
-        iterations: args.iterations,
+        iterations: args.options.iterations,
         latency,
         planner: args.planner.parse().map_err(anyhow::Error::msg)?,
         planner_options: splatloop::episode::PlannerOptions {
-            rtguide_uncertainty: match args.rtguide_uncertainty.as_str() {
+            rtguide_uncertainty: match args.options.rtguide_uncertainty.as_str() {
                 "l2" => autonomy::mapping::UncertaintyNorm::L2,
                 "sq" => autonomy::mapping::UncertaintyNorm::Sq,
                 other => anyhow::bail!("unknown --rtguide-uncertainty {other:?}; use l2 or sq"),
             },
-            rtguide_commit: args.rtguide_commit,
-            rtguide_free_space_edges: args.rtguide_free_space_edges,
-            pose_weight: args.pose_weight,
-            agslam_candidates: args.agslam_candidates,
-            agslam_train: match args.agslam_train.as_str() {
+            rtguide_commit: args.options.rtguide_commit,
+            rtguide_free_space_edges: args.options.rtguide_free_space_edges,
+            pose_weight: args.options.pose_weight,
+            agslam_candidates: args.options.agslam_candidates,
+            agslam_train: match args.options.agslam_train.as_str() {
                 "incremental" => autonomy::explore::agslam::TrainMode::Incremental,
                 "full" => autonomy::explore::agslam::TrainMode::Full,
                 other => anyhow::bail!("unknown --agslam-train {other:?}; use incremental or full"),
             },
         },
         sensor: SensorConfig {
-            width: args.view.width,
-            height: args.view.height,
+            width: args.options.view.width,
+            height: args.options.view.height,
             ..SensorConfig::default()
         },
-        test_views: args.test_views,
-        ply_sh_degree: args.ply_sh_degree,
-        spawn: args.spawn,
-        engine: args.view.engine.parse().map_err(anyhow::Error::msg)?,
+        test_views: args.options.test_views,
+        ply_sh_degree: args.options.ply_sh_degree,
+        spawn: args.options.spawn.parse().map_err(anyhow::Error::msg)?,
+        engine: args
+            .options
+            .view
+            .engine
+            .parse()
+            .map_err(anyhow::Error::msg)?,
         overwrite: args.overwrite,
         stop: splatloop::episode::StopRequest::default(),
         fail_writes_after: None,
@@ -716,6 +818,141 @@ fn run_run(args: RunArgs) -> Result<Option<u8>> {
         .stop
         .requested()
         .map(|code| u8::try_from(code).unwrap_or(1)))
+}
+
+fn run_sweep(args: SweepArgs) -> Result<Option<u8>> {
+    use splatloop::sweep::{self, Backend, Sweep, SweepSpec};
+    let binary = std::env::current_exe().context("cannot find the splatloop binary")?;
+    let gathered = |sweep: &Sweep| -> Result<()> {
+        let rows = sweep::results::collect(sweep)?;
+        let complete = rows.iter().filter(|r| r.status == "complete").count();
+        println!(
+            "{}: {complete} of {} episodes complete; wrote results.csv, summary.md, summary.png and coverage_over_time.png",
+            sweep.out.display(),
+            rows.len()
+        );
+        Ok(())
+    };
+    match args.step {
+        Some(SweepStep::Collect { out }) => {
+            gathered(&Sweep::load(&out)?)?;
+            return Ok(None);
+        }
+        Some(SweepStep::Episode { out, index }) => {
+            let sweep = Sweep::load(&out)?;
+            return match sweep::run_one(&sweep, index, &binary)? {
+                None => {
+                    println!(
+                        "episode {index} is complete: {}",
+                        sweep.folder(&sweep.episodes[index]).display()
+                    );
+                    Ok(None)
+                }
+                Some(error) => anyhow::bail!("episode {index} failed: {error}"),
+            };
+        }
+        None => {}
+    }
+    let out = args.out.context("--out is required")?;
+    let budget = match (args.budget, args.budget_survey_factor) {
+        (Some(s), None) if s > 0.0 && s.is_finite() => sweep::Budget::Seconds(s),
+        (None, Some(f)) if f > 0.0 && f.is_finite() => sweep::Budget::SurveyFactor {
+            factor: f,
+            survey_budget: args.survey_budget,
+        },
+        (None, None) => anyhow::bail!(
+            "give each episode's budget: --budget SECONDS, or --budget-survey-factor F"
+        ),
+        _ => {
+            anyhow::bail!("the budget must be a positive number of seconds (or a positive factor)")
+        }
+    };
+    let run_options = match serde_json::to_value(&args.options)? {
+        serde_json::Value::Object(map) => map,
+        _ => anyhow::bail!("the run options did not serialise as an object"),
+    };
+    let spec = SweepSpec {
+        worlds: sweep::resolve_worlds(&args.worlds)?,
+        planners: args.planners,
+        seeds: sweep::parse_seeds(&args.seeds)?,
+        budget,
+        run_options,
+    };
+    let sweep = Sweep::open(&out, spec)?;
+    let backend = match args.backend {
+        SweepBackend::Local => Backend::Local {
+            jobs: args.jobs.unwrap_or(1),
+        },
+        SweepBackend::Ray => Backend::Ray {
+            address: args.ray_address,
+            python: args.ray_python.unwrap_or_else(|| default_python(&binary)),
+            jobs: args.jobs,
+            cpus_per_episode: args.cpus_per_episode as f64,
+        },
+        SweepBackend::Slurm => {
+            let files = sweep::slurm::write_slurm(&sweep, &binary, args.cpus_per_episode)?;
+            println!(
+                "wrote {} (array task N runs episode N of {}) and {}; submit with: bash {}",
+                files.script.display(),
+                sweep.episodes.len(),
+                files.submit.display(),
+                files.submit.display()
+            );
+            return Ok(None);
+        }
+    };
+    let mut bar = Progress::new(
+        sweep.episodes.len() as u64,
+        "{spinner} sweep [{bar:30}] {msg} ({elapsed} wall)",
+        "sweep",
+    );
+    let report = sweep::run_sweep(&sweep, &backend, &binary, &mut |p| {
+        bar.update((p.complete + p.failed) as u64, || {
+            let eta = p
+                .eta_seconds
+                .map_or(String::new(), |s| format!(", eta {:.0} s", s));
+            format!(
+                "{}/{} complete, {} running, {} failed{eta}",
+                p.complete, p.total, p.running, p.failed
+            )
+        });
+    })?;
+    bar.finish();
+    println!(
+        "sweep: {} episodes: {} complete before, {} run now, {} failed",
+        report.total,
+        report.skipped,
+        report.ran,
+        report.failed.len()
+    );
+    gathered(&sweep)?;
+    if !report.failed.is_empty() {
+        for (index, error) in &report.failed {
+            eprintln!(
+                "episode {index} failed: {}",
+                error.lines().next().unwrap_or("")
+            );
+        }
+        anyhow::bail!(
+            "{} episodes failed; results.csv and summary.md say which (rerun the same command to retry them)",
+            report.failed.len()
+        );
+    }
+    Ok(None)
+}
+
+/// The Python that Ray is installed for: the checkout's .venv (scripts/setup.sh makes it),
+/// found from the working folder or from the binary's place in target/, else python3.
+fn default_python(binary: &std::path::Path) -> PathBuf {
+    let venv = |root: &std::path::Path| root.join(".venv/bin/python");
+    let candidates = std::iter::once(PathBuf::from("."))
+        .chain(binary.ancestors().skip(1).take(4).map(PathBuf::from));
+    for root in candidates {
+        if venv(&root).exists() {
+            return venv(&root);
+        }
+    }
+    PathBuf::from("python3")
 }
 
 fn run_eval(args: EvalArgs) -> Result<()> {

@@ -3,6 +3,7 @@
 //! Gaussians above the floor are dots coloured by uncertainty rank (blue low, through green
 //! and yellow, red high); the path is a dark line from a green start to a red end.
 
+use crate::canvas::Canvas;
 use crate::error::{Result, SimError};
 use crate::evaluate::WORLD_GROUPS;
 use crate::robot::Pose2;
@@ -14,57 +15,6 @@ use std::path::Path;
 /// Pixels per metre at most, and the longest side of the picture in pixels.
 const MAX_SCALE: f64 = 60.0;
 const MAX_SIDE: f64 = 1200.0;
-
-/// An RGB canvas over a rectangle of the floor; y (north) points up the picture.
-struct Canvas {
-    lo: [f64; 2],
-    scale: f64,
-    width: usize,
-    height: usize,
-    rgb: Vec<u8>,
-}
-
-impl Canvas {
-    fn pixel_of(&self, x: f64, y: f64) -> (f64, f64) {
-        (
-            (x - self.lo[0]) * self.scale,
-            self.height as f64 - (y - self.lo[1]) * self.scale,
-        )
-    }
-
-    fn world_of(&self, px: usize, py: usize) -> (f64, f64) {
-        (
-            self.lo[0] + (px as f64 + 0.5) / self.scale,
-            self.lo[1] + (self.height as f64 - py as f64 - 0.5) / self.scale,
-        )
-    }
-
-    fn put(&mut self, px: f64, py: f64, colour: [u8; 3]) {
-        if px >= 0.0 && py >= 0.0 && (px as usize) < self.width && (py as usize) < self.height {
-            let i = 3 * (py as usize * self.width + px as usize);
-            self.rgb[i..i + 3].copy_from_slice(&colour);
-        }
-    }
-
-    fn disc(&mut self, px: f64, py: f64, radius: f64, colour: [u8; 3]) {
-        let r = radius.ceil() as i64;
-        for dy in -r..=r {
-            for dx in -r..=r {
-                if ((dx * dx + dy * dy) as f64) <= radius * radius {
-                    self.put(px + dx as f64, py + dy as f64, colour);
-                }
-            }
-        }
-    }
-
-    fn line(&mut self, a: (f64, f64), b: (f64, f64), radius: f64, colour: [u8; 3]) {
-        let steps = ((b.0 - a.0).hypot(b.1 - a.1) * 2.0).ceil().max(1.0) as usize;
-        for k in 0..=steps {
-            let t = k as f64 / steps as f64;
-            self.disc(a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1), radius, colour);
-        }
-    }
-}
 
 /// Blue -> green -> yellow -> red for t in [0, 1].
 fn ramp(t: f64) -> [u8; 3] {
@@ -259,37 +209,6 @@ fn annotate(map: &Canvas, title: &str) -> Canvas {
     }
     out.text(bar_x + length + 6, y + 1, &format!("{metres} m"), ink);
     out
-}
-
-impl Canvas {
-    /// Writes `text` with its top-left corner at (x, y) in 8x8 glyphs.
-    fn text(&mut self, x: usize, y: usize, text: &str, colour: [u8; 3]) {
-        use font8x8::UnicodeFonts;
-        for (k, c) in text.chars().enumerate() {
-            let glyph = font8x8::BASIC_FONTS.get(c).unwrap_or([0; 8]);
-            for (row, bits) in glyph.iter().enumerate() {
-                for col in 0..8 {
-                    if bits >> col & 1 == 1 {
-                        self.put((x + 8 * k + col) as f64, (y + row) as f64, colour);
-                    }
-                }
-            }
-        }
-    }
-
-    /// A 10 x 10 square of `colour` with a thin dark border.
-    fn swatch(&mut self, x: usize, y: usize, colour: [u8; 3]) {
-        for dy in 0..10 {
-            for dx in 0..10 {
-                let edge = dx == 0 || dy == 0 || dx == 9 || dy == 9;
-                self.put(
-                    (x + dx) as f64,
-                    (y + dy) as f64,
-                    if edge { [60, 60, 60] } else { colour },
-                );
-            }
-        }
-    }
 }
 
 fn too_big(path: &Path) -> SimError {

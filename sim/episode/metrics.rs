@@ -71,4 +71,7 @@ pub struct Metrics {
     pub peak_memory_bytes: u64,
     /// The map on hidden test views.
     pub evaluation: crate::evaluate::Evaluation,
+    /// Coverage of the hidden test set over the episode: `[simulated seconds, coverage]` every
+    /// 10 simulated seconds (the progress display's rate) and at the end (the evaluation's).
+    pub coverage_over_time: Vec<[f64; 2]>,
 }

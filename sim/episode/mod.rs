@@ -196,6 +196,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     let frame_period = 1.0 / config.camera_rate;
     let (mut next_frame, mut next_think, mut next_coverage) = (0.0, 0.0, 0.0);
     let mut coverage = None;
+    let mut coverage_over_time = Vec::new();
     let mut frame = camera.blank_frame();
     let mut have_frame = false;
     let mut last_pose = world.pose();
@@ -279,11 +280,13 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
                 }
                 if !tests.surface.is_empty() && due(time, next_coverage) {
                     next_coverage += 10.0;
-                    coverage = Some(autonomy::metrics::coverage(
+                    let now = autonomy::metrics::coverage(
                         &tests.surface,
                         &mapper.map().gaussians.means,
                         crate::evaluate::COVERAGE_RADIUS,
-                    ));
+                    );
+                    coverage = Some(now);
+                    coverage_over_time.push([time, now]);
                 }
                 on_progress(Progress {
                     time,
@@ -337,6 +340,9 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     let simulated = world.data().time();
     let final_pose = world.pose();
     let evaluation = evaluate(&world, &mut camera, mapper.engine(), mapper.map(), &tests)?;
+    if !tests.surface.is_empty() {
+        coverage_over_time.push([simulated, evaluation.coverage]);
+    }
     let title = format!(
         "{} | {} | {:.0} of {:.0} s | coverage {:.1}% | PSNR {:.1} dB",
         config.world.file_name().map_or_else(
@@ -379,6 +385,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
         ended,
         peak_memory_bytes: peak_memory_bytes(),
         evaluation,
+        coverage_over_time,
     };
     crate::dataset::write_json(&writer.dir().join("metrics.json"), &metrics)?;
     writer.finish(&EpisodeFile {

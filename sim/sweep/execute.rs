@@ -1,0 +1,430 @@
+//! Running a sweep's episodes: batch by batch (the surveys before the planners whose budgets
+//! they set), skipping complete episodes, each episode a `splatloop run` child process whose
+//! output goes to its log. Locally N run at a time; with Ray each is a task on the cluster
+//! (`ray_driver.py`). Either way a finished episode is settled here: complete, or failed with
+//! its error recorded beside its folder, and the others go on.
+
+use super::spec::{EpisodeState, Sweep};
+use crate::error::{Result, SimError};
+use std::io::BufRead;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+/// The Ray driver the sweep runs with the cluster's Python.
+const RAY_DRIVER: &str = include_str!("ray_driver.py");
+
+/// Lines of an episode's log kept in its failure record.
+const LOG_TAIL_LINES: usize = 20;
+
+/// Where the episodes run.
+#[derive(Debug, Clone)]
+pub enum Backend {
+    /// Child processes on this machine, `jobs` at a time.
+    Local {
+        /// Episodes at once.
+        jobs: usize,
+    },
+    /// One Ray task per episode, running the binary on a worker (a filesystem shared by the
+    /// workers is assumed: the binary, the worlds and the output folder at the same paths).
+    Ray {
+        /// The cluster (`ray start --head` prints it); none starts a local Ray for the sweep.
+        address: Option<String>,
+        /// A Python with Ray installed.
+        python: PathBuf,
+        /// Episodes in flight at most (none: as many as the cluster schedules).
+        jobs: Option<usize>,
+        /// CPUs Ray reserves for each episode.
+        cpus_per_episode: f64,
+    },
+}
+
+/// The state of a sweep as it runs, for a progress display.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SweepProgress {
+    /// Episodes in the sweep.
+    pub total: usize,
+    /// Complete, earlier runs included.
+    pub complete: usize,
+    /// Running now.
+    pub running: usize,
+    /// Failed in this run.
+    pub failed: usize,
+    /// Wall seconds to the end, from this run's pace (none before an episode has finished).
+    pub eta_seconds: Option<f64>,
+}
+
+/// What a sweep run did.
+#[derive(Debug, Clone, Default)]
+pub struct SweepReport {
+    /// Episodes in the sweep.
+    pub total: usize,
+    /// Complete before this run, so not run again.
+    pub skipped: usize,
+    /// Run by this run.
+    pub ran: usize,
+    /// Failed in this run: episode index and error.
+    pub failed: Vec<(usize, String)>,
+}
+
+/// One episode to run: its index and the command line of its `splatloop run`.
+#[derive(Debug, Clone, serde::Serialize)]
+struct Task {
+    index: usize,
+    binary: PathBuf,
+    args: Vec<String>,
+    log: PathBuf,
+    cwd: PathBuf,
+}
+
+/// What a backend reports about a task.
+enum Event {
+    Started,
+    /// The exit code (none when killed by a signal), or why the process could not run.
+    Finished(usize, std::result::Result<Option<i32>, String>),
+}
+
+/// Runs every episode of `sweep` that is not complete, with `binary` as `splatloop`.
+pub fn run_sweep(
+    sweep: &Sweep,
+    backend: &Backend,
+    binary: &Path,
+    on_progress: &mut dyn FnMut(&SweepProgress),
+) -> Result<SweepReport> {
+    let started = Instant::now();
+    let mut report = SweepReport {
+        total: sweep.episodes.len(),
+        ..SweepReport::default()
+    };
+    let mut progress = SweepProgress {
+        total: sweep.episodes.len(),
+        ..SweepProgress::default()
+    };
+    for e in &sweep.episodes {
+        if matches!(sweep.state(e), EpisodeState::Complete { .. }) {
+            report.skipped += 1;
+            progress.complete += 1;
+        }
+    }
+    on_progress(&progress);
+    for (number, batch) in sweep.batches().into_iter().enumerate() {
+        let mut tasks = Vec::new();
+        for &i in &batch {
+            let e = &sweep.episodes[i];
+            if matches!(sweep.state(e), EpisodeState::Complete { .. }) {
+                continue;
+            }
+            match task(sweep, e.index, binary) {
+                Ok(t) => tasks.push(t),
+                Err(error) => {
+                    // A planner whose survey failed cannot have its budget: that is its failure.
+                    let text = error.to_string();
+                    record_failure(sweep, e.index, &text)?;
+                    report.failed.push((e.index, text));
+                    progress.failed += 1;
+                }
+            }
+        }
+        if tasks.is_empty() {
+            continue;
+        }
+        let mut on_event = |event: Event| -> Result<()> {
+            match event {
+                Event::Started => progress.running += 1,
+                Event::Finished(i, outcome) => {
+                    progress.running = progress.running.saturating_sub(1);
+                    report.ran += 1;
+                    match settle(sweep, i, outcome)? {
+                        None => progress.complete += 1,
+                        Some(error) => {
+                            report.failed.push((i, error));
+                            progress.failed += 1;
+                        }
+                    }
+                    let left = progress.total - progress.complete - progress.failed;
+                    let pace = started.elapsed().as_secs_f64() / report.ran as f64;
+                    progress.eta_seconds = Some(pace * left as f64);
+                }
+            }
+            on_progress(&progress);
+            Ok(())
+        };
+        match backend {
+            Backend::Local { jobs } => execute_local(&tasks, *jobs, &mut on_event)?,
+            Backend::Ray {
+                address,
+                python,
+                jobs,
+                cpus_per_episode,
+            } => execute_ray(
+                sweep,
+                number,
+                &tasks,
+                RayOptions {
+                    address: address.as_deref(),
+                    python,
+                    jobs: *jobs,
+                    cpus_per_episode: *cpus_per_episode,
+                },
+                &mut on_event,
+            )?,
+        }
+    }
+    Ok(report)
+}
+
+/// Runs episode `index` of `sweep` here and settles it: the per-task command of a Slurm
+/// array. `Ok(None)` when it is complete (already, or now), else its error.
+pub fn run_one(sweep: &Sweep, index: usize, binary: &Path) -> Result<Option<String>> {
+    if sweep.episodes.get(index).is_none() {
+        return Err(SimError::SweepEpisode {
+            index,
+            detail: format!(
+                "no such episode: the sweep has {} (0..{})",
+                sweep.episodes.len(),
+                sweep.episodes.len().saturating_sub(1)
+            ),
+        });
+    }
+    if matches!(
+        sweep.state(&sweep.episodes[index]),
+        EpisodeState::Complete { .. }
+    ) {
+        return Ok(None);
+    }
+    let task = match task(sweep, index, binary) {
+        Ok(t) => t,
+        Err(error) => {
+            record_failure(sweep, index, &error.to_string())?;
+            return Err(error);
+        }
+    };
+    let outcome = run_child(&task);
+    settle(sweep, index, outcome)
+}
+
+/// The episode's task; its log's folder is made here, so a Ray worker can open the log.
+fn task(sweep: &Sweep, index: usize, binary: &Path) -> Result<Task> {
+    let e = &sweep.episodes[index];
+    let log = sweep.log(e);
+    if let Some(parent) = log.parent() {
+        std::fs::create_dir_all(parent).map_err(|e| SimError::io("cannot create", parent, e))?;
+    }
+    Ok(Task {
+        index,
+        binary: binary.to_path_buf(),
+        args: sweep.command(e)?,
+        log,
+        cwd: std::env::current_dir().map_err(|e| SimError::io("cannot read", ".", e))?,
+    })
+}
+
+/// Looks at a finished episode: `None` when complete (an earlier failure record is removed),
+/// else its error, which is recorded beside its folder.
+fn settle(
+    sweep: &Sweep,
+    index: usize,
+    outcome: std::result::Result<Option<i32>, String>,
+) -> Result<Option<String>> {
+    let e = &sweep.episodes[index];
+    let state = sweep.state(e);
+    if let (EpisodeState::Complete { .. }, Ok(Some(0))) = (&state, &outcome) {
+        let stale = sweep.failure_file(e);
+        if stale.exists() {
+            std::fs::remove_file(&stale)
+                .map_err(|err| SimError::io("cannot remove", stale, err))?;
+        }
+        return Ok(None);
+    }
+    let how = match outcome {
+        Ok(Some(code)) => format!("splatloop run exited with status {code}"),
+        Ok(None) => "splatloop run was killed by a signal".to_string(),
+        Err(why) => why,
+    };
+    let ended = match state {
+        EpisodeState::Failed { error } => format!(" ({error})"),
+        _ => String::new(),
+    };
+    let log = sweep.log(e);
+    let tail = log_tail(&log);
+    let error = format!(
+        "{how}{ended}; its log is {}{}",
+        log.display(),
+        if tail.is_empty() {
+            String::new()
+        } else {
+            format!(", ending:\n{tail}")
+        }
+    );
+    record_failure(sweep, index, &error)?;
+    Ok(Some(error))
+}
+
+fn record_failure(sweep: &Sweep, index: usize, error: &str) -> Result<()> {
+    let path = sweep.failure_file(&sweep.episodes[index]);
+    if let Some(parent) = path.parent() {
+        std::fs::create_dir_all(parent).map_err(|e| SimError::io("cannot create", parent, e))?;
+    }
+    std::fs::write(&path, format!("{error}\n")).map_err(|e| SimError::io("cannot write", path, e))
+}
+
+fn log_tail(log: &Path) -> String {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    let lines: Vec<&str> = text.lines().collect();
+    lines[lines.len().saturating_sub(LOG_TAIL_LINES)..].join("\n")
+}
+
+/// Runs a task's command with its output into its log.
+fn run_child(task: &Task) -> std::result::Result<Option<i32>, String> {
+    let open = || -> std::io::Result<(std::fs::File, std::fs::File)> {
+        if let Some(parent) = task.log.parent() {
+            std::fs::create_dir_all(parent)?;
+        }
+        let log = std::fs::File::create(&task.log)?;
+        let copy = log.try_clone()?;
+        Ok((log, copy))
+    };
+    let (out, err) = open().map_err(|e| format!("cannot write {}: {e}", task.log.display()))?;
+    Command::new(&task.binary)
+        .args(&task.args)
+        .current_dir(&task.cwd)
+        .stdin(Stdio::null())
+        .stdout(out)
+        .stderr(err)
+        .status()
+        .map(|status| status.code())
+        .map_err(|e| format!("cannot start {}: {e}", task.binary.display()))
+}
+
+fn execute_local(
+    tasks: &[Task],
+    jobs: usize,
+    on_event: &mut dyn FnMut(Event) -> Result<()>,
+) -> Result<()> {
+    let next = AtomicUsize::new(0);
+    let (sender, events) = std::sync::mpsc::channel();
+    std::thread::scope(|scope| {
+        for _ in 0..jobs.clamp(1, tasks.len().max(1)) {
+            let sender = sender.clone();
+            let next = &next;
+            scope.spawn(move || loop {
+                let k = next.fetch_add(1, Ordering::Relaxed);
+                let Some(task) = tasks.get(k) else { break };
+                let _ = sender.send(Event::Started);
+                let outcome = run_child(task);
+                let _ = sender.send(Event::Finished(task.index, outcome));
+            });
+        }
+        drop(sender);
+        // A failed bookkeeping write ends the sweep once the running episodes are done.
+        let mut first_error = None;
+        for event in events {
+            if let Err(e) = on_event(event) {
+                next.store(tasks.len(), Ordering::Relaxed);
+                first_error.get_or_insert(e);
+            }
+        }
+        first_error.map_or(Ok(()), Err)
+    })
+}
+
+struct RayOptions<'a> {
+    address: Option<&'a str>,
+    python: &'a Path,
+    jobs: Option<usize>,
+    cpus_per_episode: f64,
+}
+
+/// Hands the tasks to the Ray driver and turns its report lines (`started I`, `finished I
+/// CODE`, `failed I REASON`) into events.
+fn execute_ray(
+    sweep: &Sweep,
+    batch: usize,
+    tasks: &[Task],
+    options: RayOptions,
+    on_event: &mut dyn FnMut(Event) -> Result<()>,
+) -> Result<()> {
+    let dir = sweep.out.join(".ray");
+    std::fs::create_dir_all(&dir).map_err(|e| SimError::io("cannot create", &dir, e))?;
+    let driver = dir.join("ray_driver.py");
+    std::fs::write(&driver, RAY_DRIVER).map_err(|e| SimError::io("cannot write", &driver, e))?;
+    let tasks_file = dir.join(format!("batch-{batch}.json"));
+    crate::dataset::write_json(&tasks_file, &tasks)?;
+    let driver_log = dir.join("driver.log");
+    let log = std::fs::File::create(&driver_log)
+        .map_err(|e| SimError::io("cannot write", &driver_log, e))?;
+    let mut command = Command::new(options.python);
+    command
+        .arg(&driver)
+        .arg("--tasks")
+        .arg(&tasks_file)
+        .arg("--cpus-per-episode")
+        .arg(options.cpus_per_episode.to_string())
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(log);
+    if let Some(address) = options.address {
+        command.arg("--address").arg(address);
+    }
+    if let Some(jobs) = options.jobs {
+        command.arg("--max-in-flight").arg(jobs.to_string());
+    }
+    let mut child = command
+        .spawn()
+        .map_err(|e| SimError::io("cannot start the Ray driver with", options.python, e))?;
+    let stdout = child.stdout.take().ok_or_else(|| {
+        SimError::io(
+            "cannot read the Ray driver's output of",
+            &driver,
+            std::io::Error::other("no pipe"),
+        )
+    })?;
+    let mut first_error = None;
+    for line in std::io::BufReader::new(stdout).lines() {
+        let line = line.map_err(|e| SimError::io("cannot read the output of", &driver, e))?;
+        let words: Vec<&str> = line.splitn(3, ' ').collect();
+        let index = words.get(1).and_then(|w| w.parse::<usize>().ok());
+        let event = match (words.first().copied(), index) {
+            (Some("started"), Some(_)) => Event::Started,
+            (Some("finished"), Some(i)) => {
+                let code = words.get(2).and_then(|w| w.trim().parse::<i32>().ok());
+                // Python reports a process killed by signal N as -N.
+                Event::Finished(i, Ok(code.filter(|&c| c >= 0)))
+            }
+            (Some("failed"), Some(i)) => Event::Finished(
+                i,
+                Err(format!(
+                    "the Ray task failed: {}",
+                    words.get(2).copied().unwrap_or("")
+                )),
+            ),
+            _ => continue,
+        };
+        if let Err(e) = on_event(event) {
+            first_error.get_or_insert(e);
+        }
+    }
+    let status = child
+        .wait()
+        .map_err(|e| SimError::io("cannot wait for the Ray driver", &driver, e))?;
+    if let Some(e) = first_error {
+        return Err(e);
+    }
+    if !status.success() {
+        let mut tail = log_tail(&driver_log);
+        if tail.is_empty() {
+            tail = "(no output)".into();
+        }
+        return Err(SimError::io(
+            "the Ray driver failed",
+            &driver,
+            std::io::Error::other(format!(
+                "{status}; is Ray installed for {} (scripts/setup.sh installs it into .venv)? Its log {} ends:\n{tail}",
+                options.python.display(),
+                driver_log.display()
+            )),
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,486 @@
+//! What a sweep is: its settings (sweep.json, written once and compared on every rerun), its
+//! episodes in one fixed order (the order Slurm's array indices and results.csv's rows use),
+//! where each one lives on disk, whether it is done, and the `splatloop run` that makes it.
+
+use crate::error::{Result, SimError};
+use crate::planners::PlannerKind;
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+use std::path::{Path, PathBuf};
+
+/// The settings file of a sweep, in its output folder.
+pub const SWEEP_FILE: &str = "sweep.json";
+
+/// How long each episode explores.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Budget {
+    /// The same simulated seconds for every episode.
+    Seconds(f64),
+    /// The survey first in each world and seed (at most `survey_budget` simulated seconds),
+    /// then every other planner for `factor` times the survey's simulated seconds there: the
+    /// comparison protocol (a planner gets the time the upper bound needed, with slack).
+    SurveyFactor {
+        /// Multiple of the survey's time.
+        factor: f64,
+        /// The survey's own budget.
+        survey_budget: f64,
+    },
+}
+
+/// Everything that decides a sweep's results; a rerun must match it to resume.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SweepSpec {
+    /// MJCF worlds, absolute paths (a rerun from another folder is the same sweep).
+    pub worlds: Vec<PathBuf>,
+    /// Planner names (`splatloop run --planner`).
+    pub planners: Vec<String>,
+    /// Episode seeds (sensor noise, test set, random spawn).
+    pub seeds: Vec<u64>,
+    /// How long each episode runs.
+    pub budget: Budget,
+    /// The run options every episode gets, by long name (`latency: "none"` is `--latency none`).
+    pub run_options: Map<String, Value>,
+}
+
+/// One episode of a sweep.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Episode {
+    /// Position in the sweep's order.
+    pub index: usize,
+    /// The MJCF world.
+    pub world: PathBuf,
+    /// The world's file stem: its folder name and its name in the results.
+    pub world_name: String,
+    /// apartment, office or warehouse from the manifest.json beside a generated world;
+    /// "custom" for any other world.
+    pub kind: String,
+    /// Planner name.
+    pub planner: String,
+    /// Seed.
+    pub seed: u64,
+}
+
+/// Where an episode stands on disk.
+#[derive(Debug, Clone, PartialEq)]
+pub enum EpisodeState {
+    /// Its metrics.json is there and the episode ran to its end.
+    Complete {
+        /// The parsed metrics.json.
+        metrics: Value,
+    },
+    /// It ran and failed; the recorded error.
+    Failed {
+        /// What went wrong (the exit status and the end of its log, or metrics.json's `ended`).
+        error: String,
+    },
+    /// Never run, killed, or interrupted: it runs (again) on the next pass.
+    NotRun,
+}
+
+/// A sweep with its output folder.
+#[derive(Debug, Clone)]
+pub struct Sweep {
+    /// The output folder, absolute.
+    pub out: PathBuf,
+    /// The settings.
+    pub spec: SweepSpec,
+    /// The episodes in order: in survey-factor mode first the survey of every world and seed,
+    /// then every other planner; otherwise world by world, planner by planner, seed by seed.
+    pub episodes: Vec<Episode>,
+}
+
+impl Sweep {
+    /// Opens the sweep in `out` for these settings: writes sweep.json into a new folder, or
+    /// checks that the one there has the same settings (a rerun resumes the same sweep).
+    pub fn open(out: &Path, spec: SweepSpec) -> Result<Sweep> {
+        std::fs::create_dir_all(out).map_err(|e| SimError::io("cannot create", out, e))?;
+        let out = absolute(out)?;
+        let file = out.join(SWEEP_FILE);
+        if file.exists() {
+            let earlier = read_spec(&file)?;
+            if let Some(detail) = first_difference(&earlier, &spec) {
+                return Err(SimError::SweepChanged { path: file, detail });
+            }
+        } else {
+            crate::dataset::write_json(&file, &spec)?;
+        }
+        Sweep::new(out, spec)
+    }
+
+    /// The sweep already in `out` (for `sweep episode` and `sweep collect`).
+    pub fn load(out: &Path) -> Result<Sweep> {
+        let file = out.join(SWEEP_FILE);
+        if !file.exists() {
+            return Err(SimError::MissingFile {
+                what: "sweep (sweep.json)",
+                path: file,
+            });
+        }
+        let spec = read_spec(&file)?;
+        Sweep::new(absolute(out)?, spec)
+    }
+
+    fn new(out: PathBuf, spec: SweepSpec) -> Result<Sweep> {
+        let invalid = |detail: String| SimError::InvalidArgument {
+            what: "sweep",
+            detail,
+        };
+        if spec.worlds.is_empty() || spec.planners.is_empty() || spec.seeds.is_empty() {
+            return Err(invalid(
+                "it needs at least one world, one planner and one seed".into(),
+            ));
+        }
+        for planner in &spec.planners {
+            planner.parse::<PlannerKind>().map_err(invalid)?;
+        }
+        let mut worlds: Vec<(String, PathBuf, String)> = Vec::new();
+        for world in &spec.worlds {
+            let name = world
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .ok_or_else(|| invalid(format!("{} has no file name", world.display())))?;
+            if let Some((_, other, _)) = worlds.iter().find(|(n, _, _)| *n == name) {
+                return Err(invalid(format!(
+                    "two worlds are named {name} ({} and {}): episode folders are named by the file; rename one",
+                    other.display(),
+                    world.display()
+                )));
+            }
+            worlds.push((name, world.clone(), kind_of(world)));
+        }
+        let mut episodes = Vec::new();
+        let mut push = |(name, world, kind): &(String, PathBuf, String), planner: &str, seed| {
+            episodes.push(Episode {
+                index: episodes.len(),
+                world: world.clone(),
+                world_name: name.clone(),
+                kind: kind.clone(),
+                planner: planner.to_string(),
+                seed,
+            });
+        };
+        let survey = PlannerKind::Survey.name();
+        let surveyed = matches!(spec.budget, Budget::SurveyFactor { .. });
+        if surveyed {
+            for world in &worlds {
+                for &seed in &spec.seeds {
+                    push(world, survey, seed);
+                }
+            }
+        }
+        for world in &worlds {
+            for planner in spec.planners.iter().filter(|p| !surveyed || *p != survey) {
+                for &seed in &spec.seeds {
+                    push(world, planner, seed);
+                }
+            }
+        }
+        Ok(Sweep {
+            out,
+            spec,
+            episodes,
+        })
+    }
+
+    /// The episode's folder: OUT/WORLD/PLANNER/SEED.
+    pub fn folder(&self, e: &Episode) -> PathBuf {
+        self.out
+            .join(&e.world_name)
+            .join(&e.planner)
+            .join(e.seed.to_string())
+    }
+
+    /// The episode's output (stdout and stderr of its run), beside its folder.
+    pub fn log(&self, e: &Episode) -> PathBuf {
+        self.sibling(e, "log")
+    }
+
+    /// The error of the episode's last failed run, beside its folder.
+    pub fn failure_file(&self, e: &Episode) -> PathBuf {
+        self.sibling(e, "failed.txt")
+    }
+
+    fn sibling(&self, e: &Episode, extension: &str) -> PathBuf {
+        self.out
+            .join(&e.world_name)
+            .join(&e.planner)
+            .join(format!("{}.{extension}", e.seed))
+    }
+
+    /// Where the episode stands on disk.
+    pub fn state(&self, e: &Episode) -> EpisodeState {
+        let metrics = std::fs::read(self.folder(e).join("metrics.json"))
+            .ok()
+            .and_then(|bytes| serde_json::from_slice::<Value>(&bytes).ok());
+        if let Some(metrics) = metrics {
+            let ended = metrics["ended"].as_str().unwrap_or_default();
+            if ended.starts_with("error") {
+                return EpisodeState::Failed {
+                    error: ended.to_string(),
+                };
+            }
+            if !ended.starts_with("interrupted") {
+                return EpisodeState::Complete { metrics };
+            }
+        }
+        match std::fs::read_to_string(self.failure_file(e)) {
+            Ok(error) => EpisodeState::Failed { error },
+            Err(_) => EpisodeState::NotRun,
+        }
+    }
+
+    /// The survey episode whose time sets this episode's budget (survey-factor mode).
+    pub fn survey_of(&self, e: &Episode) -> Option<&Episode> {
+        let survey = PlannerKind::Survey.name();
+        match self.spec.budget {
+            Budget::SurveyFactor { .. } if e.planner != survey => self
+                .episodes
+                .iter()
+                .find(|s| s.planner == survey && s.world == e.world && s.seed == e.seed),
+            _ => None,
+        }
+    }
+
+    /// The episode's budget in simulated seconds; in survey-factor mode its survey must be
+    /// complete.
+    pub fn budget_of(&self, e: &Episode) -> Result<f64> {
+        match self.spec.budget {
+            Budget::Seconds(s) => Ok(s),
+            Budget::SurveyFactor { survey_budget, .. } if self.survey_of(e).is_none() => {
+                Ok(survey_budget)
+            }
+            Budget::SurveyFactor { factor, .. } => {
+                let survey = self.survey_of(e).ok_or_else(|| SimError::SweepEpisode {
+                    index: e.index,
+                    detail: "no survey to set its budget".into(),
+                })?;
+                match self.state(survey) {
+                    EpisodeState::Complete { metrics } => metrics["simulated_seconds"]
+                        .as_f64()
+                        .map(|t| factor * t)
+                        .ok_or_else(|| SimError::SweepEpisode {
+                            index: e.index,
+                            detail: format!(
+                                "the survey's metrics.json in {} has no simulated_seconds",
+                                self.folder(survey).display()
+                            ),
+                        }),
+                    _ => Err(SimError::SweepEpisode {
+                        index: e.index,
+                        detail: format!(
+                            "its budget is {factor} x the survey's time in {} (seed {}), and that survey (episode {}) has not completed; run it first (see {})",
+                            e.world_name,
+                            e.seed,
+                            survey.index,
+                            self.log(survey).display()
+                        ),
+                    }),
+                }
+            }
+        }
+    }
+
+    /// The episodes in the batches they must run in: the surveys before the planners whose
+    /// budgets they set; one batch otherwise.
+    pub fn batches(&self) -> Vec<Vec<usize>> {
+        let (first, rest): (Vec<usize>, Vec<usize>) = self
+            .episodes
+            .iter()
+            .map(|e| e.index)
+            .partition(|&i| self.survey_of(&self.episodes[i]).is_none());
+        [first, rest]
+            .into_iter()
+            .filter(|b| !b.is_empty())
+            .collect()
+    }
+
+    /// The arguments of the `splatloop run` that makes this episode.
+    pub fn command(&self, e: &Episode) -> Result<Vec<String>> {
+        let budget = self.budget_of(e)?;
+        let mut args: Vec<String> = vec![
+            "run".into(),
+            "--world".into(),
+            e.world.display().to_string(),
+            "--planner".into(),
+            e.planner.clone(),
+            "--seed".into(),
+            e.seed.to_string(),
+            "--budget".into(),
+            budget.to_string(),
+            "--out".into(),
+            self.folder(e).display().to_string(),
+            "--overwrite".into(),
+        ];
+        args.extend(option_words(&self.spec.run_options));
+        Ok(args)
+    }
+}
+
+/// Run options as command-line words: `{"latency": "none", "rtguide_free_space_edges": true}`
+/// is `--latency none --rtguide-free-space-edges`; a false switch is left out.
+pub fn option_words(options: &Map<String, Value>) -> Vec<String> {
+    let mut words = Vec::new();
+    for (key, value) in options {
+        let flag = format!("--{}", key.replace('_', "-"));
+        match value {
+            Value::Bool(true) => words.push(flag),
+            Value::Bool(false) | Value::Null => {}
+            Value::String(s) => words.extend([flag, s.clone()]),
+            other => words.extend([flag, other.to_string()]),
+        }
+    }
+    words
+}
+
+/// Seeds from `1,2,5`, `1..4` (inclusive, as in a shell's `{1..4}`) or a mix (`1..3,7`).
+pub fn parse_seeds(text: &str) -> Result<Vec<u64>> {
+    let invalid = |detail: String| SimError::InvalidArgument {
+        what: "--seeds",
+        detail,
+    };
+    let number = |s: &str| {
+        s.trim().parse::<u64>().map_err(|e| {
+            invalid(format!(
+                "{s:?} is not a seed ({e}); use a list (1,2,5) or a range (1..4)"
+            ))
+        })
+    };
+    let mut seeds = Vec::new();
+    for part in text.split(',').filter(|p| !p.trim().is_empty()) {
+        if let Some((a, b)) = part.split_once("..") {
+            let (a, b) = (number(a)?, number(b)?);
+            if b < a {
+                return Err(invalid(format!("the range {part} runs backwards")));
+            }
+            seeds.extend(a..=b);
+        } else {
+            seeds.push(number(part)?);
+        }
+    }
+    if seeds.is_empty() {
+        return Err(invalid("no seeds given".into()));
+    }
+    let mut sorted = seeds.clone();
+    sorted.sort_unstable();
+    if let Some(w) = sorted.windows(2).find(|w| w[0] == w[1]) {
+        return Err(invalid(format!("seed {} is given twice", w[0])));
+    }
+    Ok(seeds)
+}
+
+/// World files from paths and shell-style patterns (`worlds/suite/office_*.xml`, quoted so
+/// the sweep expands them), in the order given, each pattern's matches sorted; absolute.
+pub fn resolve_worlds(items: &[String]) -> Result<Vec<PathBuf>> {
+    let mut worlds = Vec::new();
+    for item in items.iter().map(|s| s.trim()).filter(|s| !s.is_empty()) {
+        let matches: Vec<PathBuf> = if item.contains(['*', '?', '[']) {
+            let pattern = glob::glob(item).map_err(|e| SimError::InvalidArgument {
+                what: "--worlds",
+                detail: format!("bad pattern {item:?}: {e}"),
+            })?;
+            let mut found: Vec<PathBuf> = pattern.filter_map(|p| p.ok()).collect();
+            found.sort();
+            if found.is_empty() {
+                return Err(SimError::InvalidArgument {
+                    what: "--worlds",
+                    detail: format!("no file matches {item:?}"),
+                });
+            }
+            found
+        } else {
+            vec![PathBuf::from(item)]
+        };
+        for path in matches {
+            if !path.is_file() {
+                return Err(SimError::MissingFile {
+                    what: "world",
+                    path,
+                });
+            }
+            let path = absolute(&path)?;
+            if !worlds.contains(&path) {
+                worlds.push(path);
+            }
+        }
+    }
+    if worlds.is_empty() {
+        return Err(SimError::InvalidArgument {
+            what: "--worlds",
+            detail: "no worlds given".into(),
+        });
+    }
+    Ok(worlds)
+}
+
+/// A world's kind from the manifest.json beside it (`world suite` writes one), else "custom".
+fn kind_of(world: &Path) -> String {
+    let manifest = world.with_file_name("manifest.json");
+    let file = world.file_name().map(|f| f.to_string_lossy().into_owned());
+    std::fs::read(&manifest)
+        .ok()
+        .and_then(|bytes| serde_json::from_slice::<Vec<Value>>(&bytes).ok())
+        .and_then(|entries| {
+            entries.into_iter().find_map(|entry| {
+                (entry["file"].as_str() == file.as_deref())
+                    .then(|| entry["kind"].as_str().map(str::to_string))
+                    .flatten()
+            })
+        })
+        .unwrap_or_else(|| "custom".into())
+}
+
+fn read_spec(file: &Path) -> Result<SweepSpec> {
+    let bytes = std::fs::read(file).map_err(|e| SimError::io("cannot read", file, e))?;
+    serde_json::from_slice(&bytes).map_err(|source| SimError::BadJson {
+        path: file.to_path_buf(),
+        source,
+    })
+}
+
+/// The first setting in which two sweeps differ, as a person would say it.
+fn first_difference(earlier: &SweepSpec, now: &SweepSpec) -> Option<String> {
+    let show = |v: &dyn std::fmt::Debug| format!("{v:?}");
+    if earlier.worlds != now.worlds {
+        return Some(format!(
+            "worlds were {} and are now {}",
+            show(&earlier.worlds),
+            show(&now.worlds)
+        ));
+    }
+    if earlier.planners != now.planners {
+        return Some(format!(
+            "planners were {:?} and are now {:?}",
+            earlier.planners, now.planners
+        ));
+    }
+    if earlier.seeds != now.seeds {
+        return Some(format!(
+            "seeds were {:?} and are now {:?}",
+            earlier.seeds, now.seeds
+        ));
+    }
+    if earlier.budget != now.budget {
+        return Some(format!(
+            "the budget was {:?} and is now {:?}",
+            earlier.budget, now.budget
+        ));
+    }
+    let keys = earlier.run_options.keys().chain(now.run_options.keys());
+    for key in keys {
+        let (a, b) = (earlier.run_options.get(key), now.run_options.get(key));
+        if a != b {
+            return Some(format!(
+                "--{} was {} and is now {}",
+                key.replace('_', "-"),
+                a.map_or("unset".into(), Value::to_string),
+                b.map_or("unset".into(), Value::to_string)
+            ));
+        }
+    }
+    None
+}
+
+fn absolute(path: &Path) -> Result<PathBuf> {
+    std::fs::canonicalize(path).map_err(|e| SimError::io("cannot resolve", path, e))
+}
