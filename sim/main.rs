@@ -219,7 +219,7 @@ struct SweepArgs {
     planners: Vec<String>,
     /// Seeds: a list (1,2,5), an inclusive range (1..4), or both (1..3,7).
     #[arg(long, required = true)]
-    seeds: String,
+    seeds: Option<String>,
     /// Simulated seconds of every episode.
     #[arg(long, conflicts_with = "budget_survey_factor")]
     budget: Option<f64>,
@@ -874,7 +874,7 @@ fn run_sweep(args: SweepArgs) -> Result<Option<u8>> {
     let spec = SweepSpec {
         worlds: sweep::resolve_worlds(&args.worlds)?,
         planners: args.planners,
-        seeds: sweep::parse_seeds(&args.seeds)?,
+        seeds: sweep::parse_seeds(args.seeds.as_deref().unwrap_or_default())?,
         budget,
         run_options,
     };

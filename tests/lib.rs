@@ -10,4 +10,5 @@ mod planners;
 mod scene;
 mod sensor;
 mod support;
+mod sweep;
 mod worlds;

@@ -92,6 +92,7 @@ pub fn run_sweep(
     binary: &Path,
     on_progress: &mut dyn FnMut(&SweepProgress),
 ) -> Result<SweepReport> {
+    let _lock = lock_sweep(sweep)?;
     let started = Instant::now();
     let mut report = SweepReport {
         total: sweep.episodes.len(),
@@ -172,6 +173,24 @@ pub fn run_sweep(
         }
     }
     Ok(report)
+}
+
+/// Takes OUT/.sweep.lock for the sweep's life (the kernel drops it if the process dies), so
+/// two sweeps never run the same episodes at once.
+fn lock_sweep(sweep: &Sweep) -> Result<std::fs::File> {
+    let path = sweep.out.join(".sweep.lock");
+    let file = std::fs::File::create(&path).map_err(|e| SimError::io("cannot create", &path, e))?;
+    match file.try_lock() {
+        Ok(()) => Ok(file),
+        Err(std::fs::TryLockError::WouldBlock) => Err(SimError::InvalidArgument {
+            what: "--out",
+            detail: format!(
+                "another sweep is running in {}; wait for it, or stop it and rerun",
+                sweep.out.display()
+            ),
+        }),
+        Err(std::fs::TryLockError::Error(e)) => Err(SimError::io("cannot lock", path, e)),
+    }
 }
 
 /// Runs episode `index` of `sweep` here and settles it: the per-task command of a Slurm
