@@ -181,6 +181,7 @@ pub fn build(
         PlannerKind::Survey => Box::new(SurveyPlanner::new(
             world,
             &SurveyConfig::default(),
+            context.range,
             context.period,
         )?),
     })

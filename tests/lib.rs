@@ -10,5 +10,6 @@ mod planners;
 mod scene;
 mod sensor;
 mod support;
+mod survey;
 mod sweep;
 mod worlds;

@@ -108,19 +108,35 @@ impl FloorPlan {
                 rasterise(f, origin, cell, size, &mut occupied);
             }
         }
+        let mut plan =
+            FloorPlan::from_occupancy(origin, cell, size, occupied, radius + ROBOT_MARGIN);
+        plan.footprints = footprints;
+        Ok(plan)
+    }
+
+    /// A plan from an occupancy grid drawn by hand (tests, and tools that have no world):
+    /// the clearances are computed as for a world's.
+    pub fn from_occupancy(
+        origin: [f64; 2],
+        cell: f64,
+        size: [usize; 2],
+        occupied: Vec<bool>,
+        clearance_needed: f64,
+    ) -> Self {
+        assert_eq!(occupied.len(), size[0] * size[1], "one flag per cell");
         let clearance = distance_transform(&occupied, size)
             .into_iter()
             .map(|d| ((d.sqrt() - 0.5) * cell).max(0.0) as f32)
             .collect();
-        Ok(FloorPlan {
+        FloorPlan {
             origin,
             cell,
             size,
-            clearance_needed: radius + ROBOT_MARGIN,
+            clearance_needed,
             occupied,
             clearance,
-            footprints,
-        })
+            footprints: Vec::new(),
+        }
     }
 
     /// Number of cells.
