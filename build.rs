@@ -1,26 +1,31 @@
 //! Generates the MuJoCo and EGL bindings with bindgen and links libmujoco and libEGL.
 //!
 //! MuJoCo comes from Debian's `libmujoco-dev` (headers in /usr/include/mujoco, no pkg-config
-//! file) unless `MUJOCO_DIR` points at another MuJoCo with `include/mujoco/mujoco.h` and
-//! `lib/libmujoco.so`.
+//! file) unless `MUJOCO_DIR` points at another MuJoCo: `include/mujoco/mujoco.h` with
+//! `lib/libmujoco.so`, or a pip wheel's `site-packages/mujoco` (the headers beside a versioned
+//! `libmujoco.so.X.Y.Z`). The header's version turns on the cfgs the FFI module uses.
 
 use std::env;
 use std::path::{Path, PathBuf};
 
 const SETUP_HINT: &str =
     "run `bash scripts/setup.sh` (it installs libmujoco-dev, libclang-dev and libegl-dev), \
-     or set MUJOCO_DIR to a MuJoCo with include/mujoco/mujoco.h and lib/libmujoco.so";
+     or set MUJOCO_DIR to a MuJoCo with include/mujoco/mujoco.h and libmujoco.so in lib/ or \
+     beside include/ (a pip wheel's folder: \
+     MUJOCO_DIR=$(python3 -c 'import mujoco, os; print(os.path.dirname(mujoco.__file__))'))";
 
 fn main() {
     println!("cargo:rerun-if-env-changed=MUJOCO_DIR");
     println!("cargo:rerun-if-env-changed=LIBCLANG_PATH");
     println!("cargo:rerun-if-changed=build.rs");
 
-    // Where MuJoCo's headers and library live.
-    let (include_dir, lib_dir) = match env::var_os("MUJOCO_DIR") {
+    // Where MuJoCo's headers and library live: Debian's, an include/ + lib/ install, or a pip
+    // wheel's folder (site-packages/mujoco: include/ and libmujoco.so.X.Y.Z side by side).
+    let (include_dir, library) = match env::var_os("MUJOCO_DIR") {
         Some(dir) => {
             let dir = PathBuf::from(dir);
-            (dir.join("include"), Some(dir.join("lib")))
+            let library = find_library(&dir);
+            (dir.join("include"), Some(library))
         }
         None => (PathBuf::from("/usr/include"), None),
     };
@@ -31,6 +36,21 @@ fn main() {
             mujoco_header.display()
         ));
     }
+    let version = header_version(&mujoco_header);
+    // The API changes the FFI module handles, by the version that made them (major * 100 +
+    // minor * 10 + patch, as mjVERSION_HEADER counted before 4.0).
+    for (threshold, name) in MUJOCO_CHANGES {
+        println!("cargo::rustc-check-cfg=cfg({name})");
+        if version >= *threshold {
+            println!("cargo:rustc-cfg={name}");
+        }
+    }
+    println!(
+        "cargo:rustc-env=SPLATLOOP_MUJOCO_HEADER={}.{}.{}",
+        version / 100,
+        version / 10 % 10,
+        version % 10
+    );
     let egl_header = Path::new("/usr/include/EGL/egl.h");
     if !egl_header.is_file() {
         fail(&format!(
@@ -40,12 +60,18 @@ fn main() {
     }
 
     // Link the libraries.
-    if let Some(lib_dir) = &lib_dir {
-        println!("cargo:rustc-link-search=native={}", lib_dir.display());
-        // A MuJoCo outside the system paths must also be found at run time.
-        println!("cargo:rustc-link-arg=-Wl,-rpath,{}", lib_dir.display());
+    match &library {
+        Some((lib_dir, name)) => {
+            println!("cargo:rustc-link-search=native={}", lib_dir.display());
+            // A MuJoCo outside the system paths must also be found at run time.
+            println!("cargo:rustc-link-arg=-Wl,-rpath,{}", lib_dir.display());
+            match name {
+                Some(file) => println!("cargo:rustc-link-lib=dylib:+verbatim={file}"),
+                None => println!("cargo:rustc-link-lib=dylib=mujoco"),
+            }
+        }
+        None => println!("cargo:rustc-link-lib=dylib=mujoco"),
     }
-    println!("cargo:rustc-link-lib=dylib=mujoco");
     println!("cargo:rustc-link-lib=dylib=EGL");
 
     let out_dir = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
@@ -70,6 +96,56 @@ fn main() {
             .allowlist_var("EGL_.*"),
         &out_dir.join("egl_bindings.rs"),
     );
+}
+
+/// MuJoCo API changes behind cfgs: (first version, cfg name).
+const MUJOCO_CHANGES: &[(u32, &str)] = &[
+    // mj_ray's flg_static became an mjtBool and it gained a normal output; model sizes became
+    // 64-bit (mjtSize).
+    (300, "mujoco_3"),
+    (400, "mujoco_4"),
+];
+
+/// The folder that holds libmujoco and, for a versioned file only (a pip wheel ships
+/// `libmujoco.so.3.3.7` and no unversioned link), its file name to link verbatim.
+fn find_library(dir: &Path) -> (PathBuf, Option<String>) {
+    for folder in [dir.join("lib"), dir.to_path_buf()] {
+        if folder.join("libmujoco.so").exists() {
+            return (folder, None);
+        }
+        let versioned = std::fs::read_dir(&folder).ok().and_then(|entries| {
+            entries
+                .filter_map(|e| e.ok())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| n.starts_with("libmujoco.so."))
+                .max()
+        });
+        if let Some(file) = versioned {
+            return (folder, Some(file));
+        }
+    }
+    fail(&format!(
+        "no libmujoco.so under {} (looked in lib/ and the folder itself); {SETUP_HINT}",
+        dir.display()
+    ))
+}
+
+/// mjVERSION_HEADER as major * 100 + minor * 10 + patch (4.0 counts major * 1e6 + minor * 1e3 +
+/// patch).
+fn header_version(header: &Path) -> u32 {
+    let text = std::fs::read_to_string(header)
+        .unwrap_or_else(|e| fail(&format!("cannot read {}: {e}", header.display())));
+    let value = text
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("#define mjVERSION_HEADER"))
+        .and_then(|v| v.trim().parse::<u32>().ok())
+        .unwrap_or_else(|| fail(&format!("no mjVERSION_HEADER in {}", header.display())));
+    if value >= 1_000_000 {
+        let (major, minor, patch) = (value / 1_000_000, value / 1000 % 1000, value % 1000);
+        major * 100 + minor.min(9) * 10 + patch.min(9)
+    } else {
+        value
+    }
 }
 
 /// Runs bindgen, turning its panics (libclang missing) into a message that says what to install.
