@@ -40,15 +40,19 @@ if ! command -v cargo >/dev/null 2>&1; then
   exit 1
 fi
 
-# Ray (`sweep --backend ray`) from PyPI into .venv, pinned so every worker runs the same one;
-# the sweep finds .venv/bin/python by itself (or SPLATLOOP_PYTHON / --ray-python).
+# Python packages from PyPI into .venv, pinned so every machine runs the same ones:
+#   ray      the cluster backend of `splatloop sweep --backend ray` (the sweep finds
+#            .venv/bin/python by itself, or SPLATLOOP_PYTHON / --ray-python)
+#   mujoco   a current MuJoCo (headers and libmujoco in site-packages/mujoco) that
+#            scripts/test.sh also builds and tests against: MUJOCO_DIR takes its folder as it is
 RAY_VERSION=2.40.0
-if ! .venv/bin/python -c "import ray, sys; sys.exit(ray.__version__ != '$RAY_VERSION')" 2>/dev/null; then
-  say "installing Ray $RAY_VERSION into .venv"
+MUJOCO_VERSION=4.0.0
+if ! .venv/bin/python -c "import ray, mujoco, sys; sys.exit(ray.__version__ != '$RAY_VERSION' or mujoco.__version__ != '$MUJOCO_VERSION')" 2>/dev/null; then
+  say "installing Ray $RAY_VERSION and MuJoCo $MUJOCO_VERSION into .venv"
   python3 -m venv .venv
-  .venv/bin/pip install --quiet --disable-pip-version-check "ray==$RAY_VERSION"
+  .venv/bin/pip install --quiet --disable-pip-version-check "ray==$RAY_VERSION" "mujoco==$MUJOCO_VERSION"
 else
-  say "Ray $RAY_VERSION already in .venv"
+  say "Ray $RAY_VERSION and MuJoCo $MUJOCO_VERSION already in .venv"
 fi
 
 say "fetching Rust dependencies"

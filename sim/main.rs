@@ -456,7 +456,23 @@ fn parse_sh_degree(text: &str) -> Result<u8, String> {
 }
 
 fn main() -> std::process::ExitCode {
-    let cli = Cli::parse();
+    use clap::{CommandFactory, FromArgMatches};
+    // --version names the MuJoCo this binary runs (and the one it was built against); the
+    // string lives as long as the process, as clap wants.
+    let version = format!(
+        "{} (MuJoCo {}, built against {})",
+        env!("CARGO_PKG_VERSION"),
+        splatloop::mujoco::version(),
+        splatloop::mujoco::HEADER_VERSION
+    );
+    let cli = match Cli::command()
+        .version(&*version.leak())
+        .try_get_matches()
+        .and_then(|m| Cli::from_arg_matches(&m))
+    {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
     let filter = tracing_subscriber::EnvFilter::try_new(&cli.log)
         .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
     tracing_subscriber::fmt()

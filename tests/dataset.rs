@@ -143,7 +143,10 @@ fn the_files_describe_the_same_camera_and_poses() {
     )
     .expect("json");
     assert_eq!(episode["config"]["seed"].as_u64(), Some(0));
-    assert_eq!(episode["versions"]["mujoco"].as_str(), Some("2.2.2"));
+    // The MuJoCo that ran, which is the one the bindings were built against.
+    let mujoco = splatloop::mujoco::version();
+    assert_eq!(episode["versions"]["mujoco"].as_str(), Some(mujoco.as_str()));
+    assert_eq!(mujoco, splatloop::mujoco::HEADER_VERSION);
 }
 
 fn folder_bytes(dir: &Path) -> Vec<(String, Vec<u8>)> {

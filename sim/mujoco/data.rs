@@ -238,9 +238,13 @@ impl Data {
                 origin.coords.as_ptr(),
                 direction.as_ptr(),
                 group_mask.as_ptr(),
-                1,
+                // Static geoms count (an mjtByte before MuJoCo 4, a C bool from 4 on).
+                true.into(),
                 exclude_body.map_or(-1, |b| b as i32),
                 &mut geom,
+                // MuJoCo 4 also reports the surface normal at the hit; we need no normal.
+                #[cfg(mujoco_4)]
+                std::ptr::null_mut(),
             )
         };
         (geom >= 0 && distance >= 0.0).then_some(RayHit {

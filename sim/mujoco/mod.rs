@@ -29,6 +29,10 @@ use std::ffi::CStr;
 use std::os::raw::c_char;
 use std::sync::Once;
 
+/// The MuJoCo version whose headers the bindings were generated from (build.rs reads
+/// mjVERSION_HEADER); the library loaded at run time must be the same one.
+pub const HEADER_VERSION: &str = env!("SPLATLOOP_MUJOCO_HEADER");
+
 /// MuJoCo's version as it reports itself, for episode metadata.
 pub fn version() -> String {
     // SAFETY: mj_versionString returns a pointer to a static NUL-terminated string.

@@ -60,8 +60,9 @@ impl ObjKind {
         }
     }
 
-    fn count(self, m: &sys::mjModel) -> i32 {
-        match self {
+    /// How many the model has (`int` before MuJoCo 4, `mjtSize` from 4 on).
+    fn count(self, m: &sys::mjModel) -> usize {
+        let n = match self {
             ObjKind::Body => m.nbody,
             ObjKind::Joint => m.njnt,
             ObjKind::Geom => m.ngeom,
@@ -71,7 +72,8 @@ impl ObjKind {
             ObjKind::Mesh => m.nmesh,
             ObjKind::Texture => m.ntex,
             ObjKind::Material => m.nmat,
-        }
+        };
+        usize::try_from(n).unwrap_or(0)
     }
 }
 
@@ -140,7 +142,7 @@ pub struct MaterialInfo {
 }
 
 /// A texture's pixels as MuJoCo holds them.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct TextureInfo<'a> {
     /// A 2D texture (else a cube or skybox: six square faces stacked).
     pub flat: bool,
@@ -148,8 +150,8 @@ pub struct TextureInfo<'a> {
     pub width: usize,
     /// Height, pixels (six times the width for a cube).
     pub height: usize,
-    /// RGB bytes, row by row.
-    pub rgb: &'a [u8],
+    /// RGB bytes, row by row (converted when MuJoCo keeps another channel count).
+    pub rgb: std::borrow::Cow<'a, [u8]>,
 }
 
 /// A compiled MuJoCo model, owned; freed on drop.
@@ -260,7 +262,7 @@ impl Model {
 
     /// The name of object `id` of `kind`, if it has one.
     pub fn name(&self, kind: ObjKind, id: usize) -> Option<String> {
-        if id >= kind.count(self.raw()) as usize {
+        if id >= kind.count(self.raw()) {
             return None;
         }
         // SAFETY: id is in range, checked above.
@@ -346,7 +348,7 @@ impl Model {
             Shape::Box
         } else if is(sys::mjtGeom::mjGEOM_MESH) {
             let mesh = array(m.geom_dataid, m.ngeom)[geom];
-            if mesh >= 0 && mesh < m.nmesh {
+            if mesh >= 0 && i64::from(mesh) < m.nmesh as i64 {
                 Shape::Mesh(mesh as usize)
             } else {
                 Shape::Other
@@ -390,7 +392,7 @@ impl Model {
                 rgba[4 * geom + 2],
                 rgba[4 * geom + 3],
             ],
-            (material >= 0 && material < m.nmat).then_some(material as usize),
+            (material >= 0 && i64::from(material) < m.nmat as i64).then_some(material as usize),
         )
     }
 
@@ -398,6 +400,14 @@ impl Model {
     pub fn material(&self, material: usize) -> MaterialInfo {
         let m = self.raw();
         let rgba = array(m.mat_rgba, 4 * m.nmat);
+        // From MuJoCo 3 a material has a texture per role; the colour one is ours.
+        #[cfg(mujoco_3)]
+        let texture = {
+            let roles = sys::mjtTextureRole::mjNTEXROLE as usize;
+            array(m.mat_texid, roles * m.nmat as usize)
+                [material * roles + sys::mjtTextureRole::mjTEXROLE_RGB as usize]
+        };
+        #[cfg(not(mujoco_3))]
         let texture = array(m.mat_texid, m.nmat)[material];
         let repeat = array(m.mat_texrepeat, 2 * m.nmat);
         MaterialInfo {
@@ -407,9 +417,9 @@ impl Model {
                 rgba[4 * material + 2],
                 rgba[4 * material + 3],
             ],
-            texture: (texture >= 0 && texture < m.ntex).then_some(texture as usize),
+            texture: (texture >= 0 && i64::from(texture) < m.ntex as i64).then_some(texture as usize),
             repeat: [repeat[2 * material], repeat[2 * material + 1]],
-            uniform: array(m.mat_texuniform, m.nmat)[material] != 0,
+            uniform: is_set(array(m.mat_texuniform, m.nmat)[material]),
         }
     }
 
@@ -419,13 +429,35 @@ impl Model {
         let width = array(m.tex_width, m.ntex)[texture] as usize;
         let height = array(m.tex_height, m.ntex)[texture] as usize;
         let start = array(m.tex_adr, m.ntex)[texture] as usize;
-        let all = array(m.tex_rgb, m.ntexdata);
-        let end = (start + 3 * width * height).min(all.len());
+        let flat = array(m.tex_type, m.ntex)[texture] == sys::mjtTexture::mjTEXTURE_2D as i32;
+        // MuJoCo 2 keeps RGB in tex_rgb; from 3 on tex_data has tex_nchannel bytes a pixel.
+        #[cfg(mujoco_3)]
+        let (all, channels) = (
+            array(m.tex_data, m.ntexdata),
+            (array(m.tex_nchannel, m.ntex)[texture].max(1)) as usize,
+        );
+        #[cfg(not(mujoco_3))]
+        let (all, channels) = (array(m.tex_rgb, m.ntexdata), 3usize);
+        let end = (start + channels * width * height).min(all.len());
+        let pixels = &all[start.min(end)..end];
+        let rgb = if channels == 3 {
+            std::borrow::Cow::Borrowed(pixels)
+        } else {
+            std::borrow::Cow::Owned(
+                pixels
+                    .chunks(channels)
+                    .flat_map(|p| {
+                        let grey = p[0];
+                        [grey, *p.get(1).unwrap_or(&grey), *p.get(2).unwrap_or(&grey)]
+                    })
+                    .collect(),
+            )
+        };
         TextureInfo {
-            flat: array(m.tex_type, m.ntex)[texture] == sys::mjtTexture::mjTEXTURE_2D as i32,
+            flat,
             width,
             height,
-            rgb: &all[start.min(end)..end],
+            rgb,
         }
     }
 
@@ -563,11 +595,25 @@ impl Model {
 }
 
 /// Views a model array of `count` elements; MuJoCo allocates every array at load time.
-fn array<'a, T>(ptr: *const T, count: i32) -> &'a [T] {
-    if ptr.is_null() || count <= 0 {
+/// A MuJoCo flag: an mjtByte before MuJoCo 4, an mjtBool (C bool) from 4 on.
+#[cfg(mujoco_4)]
+fn is_set(flag: bool) -> bool {
+    flag
+}
+
+/// A MuJoCo flag: an mjtByte before MuJoCo 4, an mjtBool (C bool) from 4 on.
+#[cfg(not(mujoco_4))]
+fn is_set(flag: u8) -> bool {
+    flag != 0
+}
+
+/// A model array of `count` elements (`int` sizes before MuJoCo 4, `mjtSize` from 4 on).
+fn array<'a, T>(ptr: *const T, count: impl TryInto<usize>) -> &'a [T] {
+    let count = count.try_into().unwrap_or(0);
+    if ptr.is_null() || count == 0 {
         return &[];
     }
     // SAFETY: MuJoCo allocates `count` elements at `ptr` for the model's lifetime, which
     // outlives every borrow handed out through `&Model`.
-    unsafe { std::slice::from_raw_parts(ptr, count as usize) }
+    unsafe { std::slice::from_raw_parts(ptr, count) }
 }
