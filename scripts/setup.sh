@@ -45,14 +45,19 @@ fi
 #            .venv/bin/python by itself, or SPLATLOOP_PYTHON / --ray-python)
 #   mujoco   a current MuJoCo (headers and libmujoco in site-packages/mujoco) that
 #            scripts/test.sh also builds and tests against: MUJOCO_DIR takes its folder as it is
+#   plyfile  what the reference 3DGS loader reads PLYs with; a test reads map.ply with it
 RAY_VERSION=2.40.0
 MUJOCO_VERSION=4.0.0
-if ! .venv/bin/python -c "import ray, mujoco, sys; sys.exit(ray.__version__ != '$RAY_VERSION' or mujoco.__version__ != '$MUJOCO_VERSION')" 2>/dev/null; then
-  say "installing Ray $RAY_VERSION and MuJoCo $MUJOCO_VERSION into .venv"
+PLYFILE_VERSION=1.1
+if ! .venv/bin/python -c "
+import sys, importlib.metadata as m
+sys.exit(m.version('ray') != '$RAY_VERSION' or m.version('mujoco') != '$MUJOCO_VERSION' or m.version('plyfile') != '$PLYFILE_VERSION')" 2>/dev/null; then
+  say "installing Ray $RAY_VERSION, MuJoCo $MUJOCO_VERSION and plyfile $PLYFILE_VERSION into .venv"
   python3 -m venv .venv
-  .venv/bin/pip install --quiet --disable-pip-version-check "ray==$RAY_VERSION" "mujoco==$MUJOCO_VERSION"
+  .venv/bin/pip install --quiet --disable-pip-version-check \
+    "ray==$RAY_VERSION" "mujoco==$MUJOCO_VERSION" "plyfile==$PLYFILE_VERSION"
 else
-  say "Ray $RAY_VERSION and MuJoCo $MUJOCO_VERSION already in .venv"
+  say "Ray, MuJoCo and plyfile already in .venv"
 fi
 
 say "fetching Rust dependencies"

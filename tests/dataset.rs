@@ -145,7 +145,10 @@ fn the_files_describe_the_same_camera_and_poses() {
     assert_eq!(episode["config"]["seed"].as_u64(), Some(0));
     // The MuJoCo that ran, which is the one the bindings were built against.
     let mujoco = splatloop::mujoco::version();
-    assert_eq!(episode["versions"]["mujoco"].as_str(), Some(mujoco.as_str()));
+    assert_eq!(
+        episode["versions"]["mujoco"].as_str(),
+        Some(mujoco.as_str())
+    );
     assert_eq!(mujoco, splatloop::mujoco::HEADER_VERSION);
 }
 
@@ -204,4 +207,45 @@ fn the_same_controls_and_seed_write_byte_identical_datasets() {
         .zip(&c)
         .any(|((n, x), (_, y))| n.starts_with("depth/") && x != y);
     assert!(depth_differs, "another seed must give other depth noise");
+}
+
+#[test]
+fn a_degree_3_map_loads_with_plyfile_as_the_reference_loader_reads_it() {
+    // plyfile (what graphdeco-inria's loader reads PLYs with), pinned in .venv by setup.sh.
+    let python = repo_path(".venv/bin/python");
+    assert!(
+        python.exists(),
+        "{} is missing: scripts/setup.sh installs plyfile into .venv",
+        python.display()
+    );
+    let n = 500;
+    let gaussians = autonomy::synthetic::room_surface(n, 7);
+    let map = autonomy::map::GaussianMap::new(gaussians, (0..n).map(|k| k as f32).collect());
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("map.ply");
+    autonomy::ply::write_with_sh_degree(&map, &path, 3).expect("write");
+    // The reference loader's reads: 62 float properties it knows (x..z, normals, f_dc_0..2,
+    // f_rest_0..44, opacity, scale_0..2, rot_0..3) plus our uncertainty, and the values.
+    let script = "import sys, plyfile\n\
+        v = plyfile.PlyData.read(sys.argv[1])['vertex']\n\
+        names = [p.name for p in v.properties]\n\
+        known = [n for n in names if n != 'uncertainty']\n\
+        print(len(known), v.count, names.index('f_rest_44') - names.index('f_rest_0') + 1, \
+        max(abs(float(x)) for x in v['f_rest_17']), float(v['x'][3]), float(v['uncertainty'][9]))";
+    let out = std::process::Command::new(&python)
+        .args(["-c", script])
+        .arg(&path)
+        .output()
+        .expect("python runs");
+    assert!(
+        out.status.success(),
+        "plyfile failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let said = String::from_utf8_lossy(&out.stdout);
+    let words: Vec<&str> = said.split_whitespace().collect();
+    assert_eq!(words[..4], ["62", "500", "45", "0.0"], "{said}");
+    let x: f32 = words[4].parse().expect("x");
+    assert_eq!(x, map.gaussians.means[3][0]);
+    assert_eq!(words[5].parse::<f32>().expect("u"), 9.0);
 }

@@ -417,7 +417,8 @@ impl Model {
                 rgba[4 * material + 2],
                 rgba[4 * material + 3],
             ],
-            texture: (texture >= 0 && i64::from(texture) < m.ntex as i64).then_some(texture as usize),
+            texture: (texture >= 0 && i64::from(texture) < m.ntex as i64)
+                .then_some(texture as usize),
             repeat: [repeat[2 * material], repeat[2 * material + 1]],
             uniform: is_set(array(m.mat_texuniform, m.nmat)[material]),
         }
