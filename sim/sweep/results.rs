@@ -228,7 +228,7 @@ fn show(v: f64) -> String {
         return v.to_string();
     }
     match v.abs() {
-        a if a >= 1000.0 => format!("{v:.0}"),
+        a if a >= 1000.0 || v.fract() == 0.0 => format!("{v:.0}"),
         a if a >= 10.0 => format!("{v:.1}"),
         a if a >= 1.0 => format!("{v:.2}"),
         _ => format!("{v:.3}"),
