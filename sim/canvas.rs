@@ -28,16 +28,7 @@ impl Canvas {
 
     /// Writes the canvas as an 8-bit RGB PNG.
     pub(crate) fn write_png(&self, path: &Path) -> Result<()> {
-        let too_big = || {
-            SimError::io(
-                "cannot write",
-                path,
-                std::io::Error::other("the picture is too large"),
-            )
-        };
-        let w = u32::try_from(self.width).map_err(|_| too_big())?;
-        let h = u32::try_from(self.height).map_err(|_| too_big())?;
-        crate::dataset::write_rgb_png(path, w, h, &self.rgb)
+        write_rgb(path, self.width, self.height, &self.rgb)
     }
 
     pub(crate) fn pixel_of(&self, x: f64, y: f64) -> (f64, f64) {
@@ -110,4 +101,19 @@ impl Canvas {
             }
         }
     }
+}
+
+/// Writes `rgb` (rows of `width` RGB pixels) as an 8-bit PNG; a picture too large for PNG's
+/// 32-bit sides is an error naming the file.
+pub(crate) fn write_rgb(path: &Path, width: usize, height: usize, rgb: &[u8]) -> Result<()> {
+    let too_big = || {
+        SimError::io(
+            "cannot write",
+            path,
+            std::io::Error::other("the picture is too large"),
+        )
+    };
+    let w = u32::try_from(width).map_err(|_| too_big())?;
+    let h = u32::try_from(height).map_err(|_| too_big())?;
+    crate::dataset::write_rgb_png(path, w, h, rgb)
 }

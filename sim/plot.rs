@@ -4,7 +4,7 @@
 //! and yellow, red high); the path is a dark line from a green start to a red end.
 
 use crate::canvas::Canvas;
-use crate::error::{Result, SimError};
+use crate::error::Result;
 use crate::evaluate::WORLD_GROUPS;
 use crate::robot::Pose2;
 use crate::world::World;
@@ -134,11 +134,7 @@ pub fn write_trajectory_png(
         canvas.disc(last.0, last.1, 5.0, [200, 30, 30]);
     }
     let picture = annotate(&canvas, title);
-    let (w, h) = (
-        u32::try_from(picture.width).map_err(|_| too_big(path_png))?,
-        u32::try_from(picture.height).map_err(|_| too_big(path_png))?,
-    );
-    crate::dataset::write_rgb_png(path_png, w, h, &picture.rgb)?;
+    picture.write_png(path_png)?;
     Ok((lo, hi))
 }
 
@@ -211,14 +207,6 @@ fn annotate(map: &Canvas, title: &str) -> Canvas {
     out
 }
 
-fn too_big(path: &Path) -> SimError {
-    SimError::io(
-        "cannot write",
-        path,
-        std::io::Error::other("the picture is too large"),
-    )
-}
-
 /// The floor plan of `world check --plot`: a pixel per cell, north up. Obstacles dark grey,
 /// reachable cells green, cells where the robot fits but cannot get to red, floor too close
 /// to an obstacle beige, outside white; the spawn a blue dot.
@@ -264,9 +252,5 @@ pub fn write_floor_plan_png(
             }
         }
     }
-    let (pw, ph) = (
-        u32::try_from(w).map_err(|_| too_big(path_png))?,
-        u32::try_from(h).map_err(|_| too_big(path_png))?,
-    );
-    crate::dataset::write_rgb_png(path_png, pw, ph, &rgb)
+    crate::canvas::write_rgb(path_png, w, h, &rgb)
 }
