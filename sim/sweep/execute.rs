@@ -102,20 +102,20 @@ pub fn run_sweep(
         total: sweep.episodes.len(),
         ..SweepProgress::default()
     };
-    for e in &sweep.episodes {
-        if matches!(sweep.state(e), EpisodeState::Complete { .. }) {
-            report.skipped += 1;
-            progress.complete += 1;
-        }
-    }
+    // Read once: batches are disjoint, so an episode's state changes only when its own
+    // batch runs it.
+    let done: Vec<bool> = sweep
+        .episodes
+        .iter()
+        .map(|e| matches!(sweep.state(e), EpisodeState::Complete { .. }))
+        .collect();
+    report.skipped = done.iter().filter(|d| **d).count();
+    progress.complete = report.skipped;
     on_progress(&progress);
     for (number, batch) in sweep.batches().into_iter().enumerate() {
         let mut tasks = Vec::new();
-        for &i in &batch {
+        for &i in batch.iter().filter(|&&i| !done[i]) {
             let e = &sweep.episodes[i];
-            if matches!(sweep.state(e), EpisodeState::Complete { .. }) {
-                continue;
-            }
             match task(sweep, e.index, binary) {
                 Ok(t) => tasks.push(t),
                 Err(error) => {
@@ -296,10 +296,8 @@ fn log_tail(log: &Path) -> String {
 
 /// Runs a task's command with its output into its log.
 fn run_child(task: &Task) -> std::result::Result<Option<i32>, String> {
+    // `task` made the log's folder.
     let open = || -> std::io::Result<(std::fs::File, std::fs::File)> {
-        if let Some(parent) = task.log.parent() {
-            std::fs::create_dir_all(parent)?;
-        }
         let log = std::fs::File::create(&task.log)?;
         let copy = log.try_clone()?;
         Ok((log, copy))
