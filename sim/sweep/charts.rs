@@ -2,7 +2,7 @@
 //! planner, a point per episode coloured by world, the mean as a bar) and
 //! coverage_over_time.png (a panel per planner, a line per episode).
 
-use super::results::Row;
+use super::results::{first_seen, Row};
 use crate::canvas::Canvas;
 use crate::error::Result;
 use std::path::Path;
@@ -126,16 +126,6 @@ fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     }
     let pad = ((hi - lo) * 0.1).max(0.5);
     (lo - pad, hi + pad)
-}
-
-fn first_seen<'a>(items: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
-    let mut seen: Vec<&str> = Vec::new();
-    for item in items {
-        if !seen.contains(&item) {
-            seen.push(item);
-        }
-    }
-    seen
 }
 
 /// A row of world swatches with their names, from (x, y); returns the height used.

@@ -235,15 +235,21 @@ fn show(v: f64) -> String {
     }
 }
 
-/// The planners in the sweep's order of first appearance.
-fn planners(rows: &[Row]) -> Vec<String> {
-    let mut seen = Vec::new();
-    for r in rows {
-        if !seen.contains(&r.planner) {
-            seen.push(r.planner.clone());
+/// The distinct items in the order they first appear (planners and worlds keep the sweep's
+/// order in the tables and the charts).
+pub(super) fn first_seen<'a>(items: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
+    let mut seen: Vec<&str> = Vec::new();
+    for item in items {
+        if !seen.contains(&item) {
+            seen.push(item);
         }
     }
     seen
+}
+
+/// The planners in the sweep's order.
+fn planners(rows: &[Row]) -> Vec<&str> {
+    first_seen(rows.iter().map(|r| r.planner.as_str()))
 }
 
 /// summary.md's text.
@@ -368,7 +374,7 @@ pub fn summary(sweep: &Sweep, columns: &[String], rows: &[Row]) -> String {
 
     for (reference, title) in [("rtguide", "RT-GuIDE"), ("survey", "the survey")] {
         let _ = writeln!(md, "\n## Against {title}\n");
-        if !names.iter().any(|p| p == reference) {
+        if !names.contains(&reference) {
             let _ = writeln!(md, "{title} is not in this sweep.");
             continue;
         }
@@ -383,7 +389,7 @@ pub fn summary(sweep: &Sweep, columns: &[String], rows: &[Row]) -> String {
         md.push_str("\n|---|---:|");
         md.push_str(&"---:|".repeat(HEADLINE.len()));
         md.push('\n');
-        for p in names.iter().filter(|p| *p != reference) {
+        for p in names.iter().filter(|p| **p != reference) {
             let pairs: Vec<(&Row, &Row)> = by_planner(p)
                 .into_iter()
                 .filter_map(|r| {
