@@ -187,27 +187,22 @@ fn a_sweep_gathers_every_episode_and_a_rerun_runs_nothing() {
     assert!(pixels_of(&out.join("coverage_over_time.png"), [31, 119, 180]) > 50);
 
     // A rerun of the finished sweep runs nothing and touches no episode.
-    let before: Vec<_> = table
-        .iter()
-        .map(|r| {
-            modified(
-                &episode(&out, &r["planner"], r["seed"].parse().expect("seed"))
-                    .join("metrics.json"),
-            )
-        })
-        .collect();
+    let written = || -> Vec<_> {
+        table
+            .iter()
+            .map(|r| {
+                modified(
+                    &episode(&out, &r["planner"], r["seed"].parse().expect("seed"))
+                        .join("metrics.json"),
+                )
+            })
+            .collect()
+    };
+    let before = written();
     let again = run_sweep(&out, &args);
     let said = String::from_utf8_lossy(&again.stdout);
     assert!(said.contains("4 complete before, 0 run now"), "{said}");
-    let after: Vec<_> = table
-        .iter()
-        .map(|r| {
-            modified(
-                &episode(&out, &r["planner"], r["seed"].parse().expect("seed"))
-                    .join("metrics.json"),
-            )
-        })
-        .collect();
+    let after = written();
     assert_eq!(before, after);
 
     // Other settings in the same folder are refused, naming what changed.
