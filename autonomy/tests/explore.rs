@@ -691,6 +691,7 @@ fn a_schedule_holds_for_its_commitment_and_recoveries_to_their_end() {
         guidance: Vec::new(),
         score: 0.0,
         candidates: 1,
+        alternatives: Vec::new(),
         commit,
     };
     let replaced = Schedule::from_plan(&plan(0.0), 10.0);

@@ -219,6 +219,7 @@ impl Planner for SurveyPlanner {
             guidance: Vec::new(),
             score: 0.0,
             candidates: 1,
+            alternatives: Vec::new(),
             commit: 0.0,
         })
     }

@@ -209,6 +209,7 @@ impl Executor {
         let goal = along(&path, search.horizon);
         let trajectories = self.candidates(robot, goal);
         let candidates = trajectories.len();
+        let alternatives = trajectories.iter().map(|t| t.states.clone()).collect();
         let best = trajectories
             .into_iter()
             .next()
@@ -221,6 +222,7 @@ impl Executor {
             guidance: path,
             score: -best.cost,
             candidates,
+            alternatives,
             commit: 0.0,
         })
     }
@@ -247,6 +249,7 @@ impl Executor {
             guidance: vec![[robot.x, robot.y]],
             score: 0.0,
             candidates: 1,
+            alternatives: Vec::new(),
             commit: 0.0,
         }
     }

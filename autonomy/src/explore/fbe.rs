@@ -210,6 +210,7 @@ pub fn look_around(start: Pose2, max_turn: f64, period: f64) -> Plan {
         guidance: vec![[start.x, start.y]],
         score: 0.0,
         candidates: 1,
+        alternatives: Vec::new(),
         commit: f64::INFINITY,
     }
 }

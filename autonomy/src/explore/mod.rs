@@ -46,6 +46,9 @@ pub struct Plan {
     pub score: f64,
     /// Candidates the planner compared.
     pub candidates: usize,
+    /// The predicted states of the candidate trajectories the chosen one was picked from
+    /// (a recording draws them beside it); empty when the planner compared none.
+    pub alternatives: Vec<Vec<Pose2>>,
     /// Seconds from its start the host follows it before asking again: 0 replaces it at the
     /// next think, infinity holds it to its end (a look around).
     pub commit: f64,

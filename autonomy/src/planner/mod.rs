@@ -116,6 +116,8 @@ pub struct RtGuidePlan {
     pub local_goal: [f64; 2],
     /// Candidates scored.
     pub candidates: usize,
+    /// The scored candidates' states (the chosen one among them).
+    pub alternatives: Vec<Vec<Pose2>>,
     /// Seconds: sync + regions + graph, search, information.
     pub seconds: [f64; 3],
 }
@@ -341,6 +343,7 @@ impl RtGuidePlanner {
             guidance,
             local_goal: goal,
             candidates: scored.len(),
+            alternatives: scored.iter().map(|(_, t)| t.states.clone()).collect(),
             seconds: [
                 (t1 - t0).as_secs_f64(),
                 (t2 - t1).as_secs_f64(),
@@ -396,6 +399,7 @@ impl crate::explore::Planner for RtGuidePlanner {
                     guidance: p.guidance,
                     score: p.information,
                     candidates: p.candidates,
+                    alternatives: p.alternatives,
                     commit: self.config.commit_seconds,
                 })
             }
