@@ -77,6 +77,12 @@ impl Controller {
         self.active().holding_at(time)
     }
 
+    /// Takes in the robot's pose at a think, while a schedule holds too (a look-around's turn
+    /// is progress).
+    pub fn observe(&mut self, pose: &Pose2) {
+        self.progress.observe(pose);
+    }
+
     /// Whether the robot made no progress for a while: the planner is overruled by a back-off.
     pub fn stalled(&self, time: f64, pose: &Pose2) -> bool {
         self.progress.stalled(time, pose)

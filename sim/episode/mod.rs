@@ -263,6 +263,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
                 let t1 = Instant::now();
                 mapping_times.push((t1 - t0).as_secs_f64());
                 let pose = world.pose();
+                control.observe(&pose);
                 if !control.holding(time + 0.5 * timestep) {
                     let lead = control.lead();
                     let start = control.start_pose(pose, time, lead);
