@@ -46,18 +46,21 @@ fi
 #   mujoco   a current MuJoCo (headers and libmujoco in site-packages/mujoco) that
 #            scripts/test.sh also builds and tests against: MUJOCO_DIR takes its folder as it is
 #   plyfile  what the reference 3DGS loader reads PLYs with; a test reads map.ply with it
+#   rerun-sdk  the rerun viewer and CLI (`.venv/bin/rerun FILE.rrd`), the same version as the
+#            Rust SDK that writes our recordings; a test reads one back with `rerun rrd print`
 RAY_VERSION=2.40.0
 MUJOCO_VERSION=4.0.0
 PLYFILE_VERSION=1.1
+RERUN_VERSION=0.36.3
 if ! .venv/bin/python -c "
 import sys, importlib.metadata as m
-sys.exit(m.version('ray') != '$RAY_VERSION' or m.version('mujoco') != '$MUJOCO_VERSION' or m.version('plyfile') != '$PLYFILE_VERSION')" 2>/dev/null; then
-  say "installing Ray $RAY_VERSION, MuJoCo $MUJOCO_VERSION and plyfile $PLYFILE_VERSION into .venv"
+sys.exit(m.version('ray') != '$RAY_VERSION' or m.version('mujoco') != '$MUJOCO_VERSION' or m.version('plyfile') != '$PLYFILE_VERSION' or m.version('rerun-sdk') != '$RERUN_VERSION')" 2>/dev/null; then
+  say "installing Ray $RAY_VERSION, MuJoCo $MUJOCO_VERSION, plyfile $PLYFILE_VERSION and rerun-sdk $RERUN_VERSION into .venv"
   python3 -m venv .venv
   .venv/bin/pip install --quiet --disable-pip-version-check \
-    "ray==$RAY_VERSION" "mujoco==$MUJOCO_VERSION" "plyfile==$PLYFILE_VERSION"
+    "ray==$RAY_VERSION" "mujoco==$MUJOCO_VERSION" "plyfile==$PLYFILE_VERSION" "rerun-sdk==$RERUN_VERSION"
 else
-  say "Ray, MuJoCo and plyfile already in .venv"
+  say "Ray, MuJoCo, plyfile and rerun-sdk already in .venv"
 fi
 
 say "fetching Rust dependencies"
@@ -70,7 +73,8 @@ if [ "${SPLATLOOP_SKIP_RELEASE_BUILD:-0}" = 1 ]; then
   exit 0
 fi
 
-say "building splatloop (release)"
-cargo build --release --locked 2>/dev/null || cargo build --release
+# --features rerun: `run --rerun FILE.rrd` and `record --rerun` write rerun recordings.
+say "building splatloop (release, with rerun recordings)"
+cargo build --release --features rerun --locked 2>/dev/null || cargo build --release --features rerun
 
 say "done: target/release/splatloop is ready"

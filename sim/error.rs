@@ -114,6 +114,16 @@ pub enum SimError {
         /// Why not, and what to do.
         detail: String,
     },
+    /// The rerun recording failed (a file that cannot be written, a viewer address that does
+    /// not parse); the SDK's error is kept.
+    #[error("rerun recording: {what} (check the --rerun path or the --rerun-connect address)")]
+    Rerun {
+        /// What was being done.
+        what: &'static str,
+        /// The SDK's error.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
 }
 
 /// Shorthand for host results.

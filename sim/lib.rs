@@ -18,6 +18,7 @@ pub mod novel_view;
 pub mod planners;
 pub mod plot;
 pub mod record;
+pub mod rerun_log;
 pub mod robot;
 pub mod scene;
 pub mod spawn;

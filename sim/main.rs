@@ -186,8 +186,9 @@ struct RunArgs {
     world: PathBuf,
     /// Planner: rtguide (RT-GuIDE: information-driven, on the map alone), fbe (frontier
     /// exploration, AG-SLAM's baseline), agslam (AG-SLAM's Fisher-information planner) or
-    /// survey (a lawn-mower over the world's free space, which it knows: the upper bound to
-    /// compare with). All but the survey drive through the same executor.
+    /// survey (full turns at the points of the world's floor plan, which it knows, that see
+    /// the most: the bound to compare with). All but the survey drive through the same
+    /// executor.
     #[arg(long, default_value = "rtguide")]
     planner: String,
     /// Simulated seconds to explore.
@@ -201,9 +202,39 @@ struct RunArgs {
     /// Episode folder (must be new or empty).
     #[arg(long, default_value = "runs/episode")]
     out: PathBuf,
-    /// Replace the output folder if it holds an earlier episode.
+    /// Replace the output folder if it holds an earlier episode (and the --rerun file).
     #[arg(long)]
     overwrite: bool,
+    #[command(flatten)]
+    rerun: RerunArgs,
+    /// With --rerun or --rerun-connect: log the Gaussian map every N mapping steps (one step
+    /// per simulated second; a 2e5-Gaussian map is about 5 MB each time).
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    rerun_map_every: usize,
+}
+
+/// Where a rerun recording of the episode goes (needs a build with `--features rerun`,
+/// which scripts/setup.sh makes).
+#[derive(clap::Args)]
+struct RerunArgs {
+    /// Write a rerun recording (.rrd: camera images and poses, path, plans, map, scalars);
+    /// open it with `rerun FILE.rrd`.
+    #[arg(long, value_name = "FILE.rrd")]
+    rerun: Option<PathBuf>,
+    /// Stream the recording to a running rerun viewer (HOST:PORT, e.g. 127.0.0.1:9876, or a
+    /// rerun+http:// URL).
+    #[arg(long, value_name = "ADDR")]
+    rerun_connect: Option<String>,
+}
+
+impl RerunArgs {
+    fn target(&self, map_every: usize) -> splatloop::rerun_log::RerunTarget {
+        splatloop::rerun_log::RerunTarget {
+            file: self.rerun.clone(),
+            connect: self.rerun_connect.clone(),
+            map_every,
+        }
+    }
 }
 
 #[derive(clap::Args)]
@@ -445,6 +476,8 @@ struct RecordArgs {
     /// Start pose `x,y,theta` (metres, radians); default: the world's `spawn` site.
     #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
     start: Option<Pose2>,
+    #[command(flatten)]
+    rerun: RerunArgs,
 }
 
 fn parse_sh_degree(text: &str) -> Result<u8, String> {
@@ -777,6 +810,7 @@ fn run_run(args: RunArgs) -> Result<Option<u8>> {
             .parse()
             .map_err(anyhow::Error::msg)?,
         overwrite: args.overwrite,
+        rerun: args.rerun.target(args.rerun_map_every),
         stop: splatloop::episode::StopRequest::default(),
         fail_writes_after: None,
         out: args.out,
@@ -1342,6 +1376,7 @@ fn run_record(args: RecordArgs) -> Result<()> {
         },
         start: args.start,
         overwrite: args.overwrite,
+        rerun: args.rerun.target(1),
         out: args.out,
     };
     let mut bar = Progress::new(

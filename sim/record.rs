@@ -5,6 +5,7 @@ use crate::controls::ControlSchedule;
 use crate::dataset::DatasetWriter;
 use crate::egl::EglContext;
 use crate::error::{Result, SimError};
+use crate::rerun_log::{RerunLog, RerunTarget};
 use crate::robot::Pose2;
 use crate::spawn::{place_robot, Spawn};
 use crate::world::World;
@@ -31,6 +32,9 @@ pub struct RecordConfig {
     /// Replace an existing dataset in `out`.
     #[serde(skip)]
     pub overwrite: bool,
+    /// A rerun recording of the drive, if one is wanted.
+    #[serde(skip)]
+    pub rerun: RerunTarget,
     /// Output folder (not recorded: the same episode is the same bytes wherever it lands).
     #[serde(skip)]
     pub out: PathBuf,
@@ -108,6 +112,7 @@ pub struct RecordSummary {
 /// Runs the recording; `on_progress` receives simulated time after each frame.
 pub fn record(config: &RecordConfig, on_progress: &mut dyn FnMut(f64)) -> Result<RecordSummary> {
     config.validate()?;
+    config.rerun.check(&config.out, config.overwrite)?;
     let mut world = World::load(&config.world, &config.sensor)?;
     let schedule = ControlSchedule::from_arg(&config.controls, &world.robot().limits)?;
     world.check_frame_rate(config.frame_rate, "frame rate")?;
@@ -118,6 +123,11 @@ pub fn record(config: &RecordConfig, on_progress: &mut dyn FnMut(f64)) -> Result
     let gl = EglContext::new()?;
     let mut camera = world.make_camera(&config.sensor, config.seed, &gl)?;
     let mut writer = DatasetWriter::create(&config.out, config.sensor.max_range, config.overwrite)?;
+    let rerun = RerunLog::open(
+        &config.rerun,
+        &format!("record {} {}", config.world.display(), config.controls),
+    )?;
+    let mut path = Vec::new();
 
     let timestep = world.model().timestep();
     let steps = (config.duration / timestep).round() as u64;
@@ -131,6 +141,11 @@ pub fn record(config: &RecordConfig, on_progress: &mut dyn FnMut(f64)) -> Result
         if time + 0.5 * timestep >= next_frame {
             camera.capture_into(world.data(), &mut frame)?;
             writer.write_frame(&frame)?;
+            if let Some(log) = &rerun {
+                path.push(world.pose());
+                log.at(time);
+                log.frame(&frame.camera, &frame.rgb, &frame.depth, &path)?;
+            }
             next_frame += frame_period;
             on_progress(time);
         }
@@ -144,6 +159,9 @@ pub fn record(config: &RecordConfig, on_progress: &mut dyn FnMut(f64)) -> Result
     }
     let final_pose = world.pose();
     let frames = writer.frame_count();
+    if let Some(log) = rerun {
+        log.finish()?;
+    }
     let out = writer.finish(&EpisodeFile {
         command: "record",
         config,

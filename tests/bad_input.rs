@@ -76,6 +76,7 @@ fn record_config(duration: f64, out: &Path) -> RecordConfig {
         sensor: SensorConfig::default(),
         start: None,
         overwrite: false,
+        rerun: Default::default(),
         out: out.to_owned(),
     }
 }

@@ -20,6 +20,7 @@ fn record_spin(out: &Path, seed: u64, noise: Option<f64>) {
         },
         start: None,
         overwrite: false,
+        rerun: Default::default(),
         out: out.to_owned(),
     };
     let summary = record(&config, &mut |_| {}).expect("recording");

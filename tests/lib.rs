@@ -7,6 +7,7 @@ mod egl;
 mod episode;
 mod nothing_lost;
 mod planners;
+mod recording;
 mod scene;
 mod sensor;
 mod support;

@@ -128,6 +128,7 @@ fn record_config(out: &Path, duration: f64, overwrite: bool) -> RecordConfig {
         sensor: SensorConfig::default(),
         start: None,
         overwrite,
+        rerun: Default::default(),
         out: out.to_owned(),
     }
 }

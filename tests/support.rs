@@ -43,6 +43,7 @@ pub fn run_config(
         spawn: splatloop::spawn::Spawn::Site,
         engine: autonomy::splat::EngineChoice::Cpu,
         overwrite: false,
+        rerun: Default::default(),
         stop: Default::default(),
         fail_writes_after: None,
         out,

@@ -11,10 +11,11 @@ use crate::error::{Result, SimError};
 use crate::evaluate::{evaluate, TestSet};
 use crate::planners::{self, PlannerContext};
 use crate::record::Versions;
+use crate::rerun_log::{RerunLog, RerunTarget};
 use crate::robot::Pose2;
 use crate::spawn::{place_robot, Spawn};
 use crate::world::World;
-use autonomy::explore::Observation;
+use autonomy::explore::{Decision, Observation};
 use autonomy::mapping::{Frame, Mapper, MapperConfig};
 use autonomy::splat::{EngineChoice, Rasteriser};
 use serde::Serialize;
@@ -78,6 +79,9 @@ pub struct RunConfig {
     /// Replace an earlier episode in `out`.
     #[serde(skip)]
     pub overwrite: bool,
+    /// A rerun recording of the episode, if one is wanted.
+    #[serde(skip)]
+    pub rerun: RerunTarget,
     /// Set by a signal handler to stop at the next tick (the episode is still written).
     #[serde(skip)]
     pub stop: StopRequest,
@@ -146,6 +150,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
         }
     }
     config.sensor.validate()?;
+    config.rerun.check(&config.out, config.overwrite)?;
     let wall = Instant::now();
     let mut world = World::load(&config.world, &config.sensor)?;
     world.check_frame_rate(config.camera_rate, "camera rate")?;
@@ -158,6 +163,15 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
         writer.fail_writes_after(frames);
     }
     writer.name_point_cloud(POINT_CLOUD);
+    let mut rerun = RerunLog::open(
+        &config.rerun,
+        &format!(
+            "run {} {} seed {}",
+            config.world.display(),
+            config.planner.name(),
+            config.seed
+        ),
+    )?;
     let engine = Rasteriser::select(config.engine);
     let engine_name = engine.describe();
     let mut mapper = Mapper::new(
@@ -243,6 +257,11 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
                     mapper.map(),
                 );
                 camera_times.push(t0.elapsed().as_secs_f64());
+                if let Some(log) = &rerun {
+                    log.at(time);
+                    log.frame(&frame.camera, &frame.rgb, &frame.depth, &path)?;
+                    log.scalar("timing/camera_ms", 1e3 * t0.elapsed().as_secs_f64())?;
+                }
                 have_frame = true;
                 next_frame += frame_period;
             }
@@ -262,6 +281,12 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
                     .map_err(|e| SimError::Mapping(e.to_string()))?;
                 let t1 = Instant::now();
                 mapping_times.push((t1 - t0).as_secs_f64());
+                if let Some(log) = &mut rerun {
+                    log.at(time);
+                    log.map(mapper.map())?;
+                    log.scalar("timing/mapping_ms", 1e3 * (t1 - t0).as_secs_f64())?;
+                    log.scalar("metrics/gaussians", mapper.map().len() as f64)?;
+                }
                 let pose = world.pose();
                 control.observe(&pose);
                 if !control.holding(time + 0.5 * timestep) {
@@ -271,6 +296,12 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
                         (!control.stalled(time, &pose)).then(|| planner.plan(mapper.map(), start));
                     let t2 = Instant::now();
                     planning_times.push((t2 - t1).as_secs_f64());
+                    if let Some(log) = &rerun {
+                        log.scalar("timing/planning_ms", 1e3 * (t2 - t1).as_secs_f64())?;
+                        if let Some(Decision::Go(plan)) = &decision {
+                            log.plan(&plan.alternatives, &plan.states)?;
+                        }
+                    }
                     let delay = (t2 - t0).as_secs_f64();
                     if let Verdict::End(reason) =
                         control.take(decision, time, pose, start, delay, lead)
@@ -288,6 +319,9 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
                     );
                     coverage = Some(now);
                     coverage_over_time.push([time, now]);
+                    if let Some(log) = &rerun {
+                        log.scalar("metrics/coverage", now)?;
+                    }
                 }
                 on_progress(Progress {
                     time,
@@ -388,6 +422,11 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
         evaluation,
         coverage_over_time,
     };
+    if let Some(log) = rerun {
+        log.at(simulated);
+        log.scalar("metrics/coverage", metrics.evaluation.coverage)?;
+        log.finish()?;
+    }
     crate::dataset::write_json(&writer.dir().join("metrics.json"), &metrics)?;
     writer.finish(&EpisodeFile {
         command: "run",

@@ -1,0 +1,157 @@
+//! The rerun recording of an episode, read back by rerun's own CLI (`rerun rrd print`, from
+//! the pip rerun-sdk that scripts/setup.sh pins in .venv): every frame's image, depth, camera
+//! and path, every mapping step's map, every plan. The read-back needs a build with
+//! `--features rerun` (scripts/test.sh runs it so); without it, asking for a recording is
+//! refused with what to do.
+
+use crate::support::run_config;
+use splatloop::episode::{run_episode, PlannerKind};
+#[cfg(feature = "rerun")]
+use {
+    crate::support::repo_path, splatloop::rerun_log::RerunTarget, std::collections::BTreeMap,
+    std::path::Path,
+};
+
+#[cfg(feature = "rerun")]
+/// Rows per entity path and the data columns seen there, from `rerun rrd print`'s summary
+/// (one line per chunk: "Chunk(..) with N rows (..) - /entity - data columns: [..]").
+fn rows_per_entity(file: &Path) -> BTreeMap<String, (usize, String)> {
+    let rerun = repo_path(".venv/bin/rerun");
+    assert!(
+        rerun.exists(),
+        "{} is missing: scripts/setup.sh installs the rerun-sdk into .venv",
+        rerun.display()
+    );
+    let output = std::process::Command::new(rerun)
+        .args(["rrd", "print"])
+        .arg(file)
+        .env("RERUN_ANALYTICS", "0")
+        .output()
+        .expect("rerun runs");
+    assert!(
+        output.status.success(),
+        "rerun rrd print failed: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let mut entities = BTreeMap::<String, (usize, String)>::new();
+    for line in String::from_utf8_lossy(&output.stdout).lines() {
+        let Some(rest) = line.strip_prefix("Chunk(") else {
+            continue;
+        };
+        let rows: usize = rest
+            .split(" with ")
+            .nth(1)
+            .and_then(|s| s.split(' ').next())
+            .and_then(|n| n.parse().ok())
+            .unwrap_or_else(|| panic!("no row count in {line:?}"));
+        let mut parts = line.split(" - ");
+        let entity = parts.nth(1).expect("an entity path").trim().to_string();
+        let columns = parts.next().unwrap_or_default().to_string();
+        let entry = entities.entry(entity).or_default();
+        entry.0 += rows;
+        entry.1.push_str(&columns);
+    }
+    entities
+}
+
+#[cfg(feature = "rerun")]
+#[test]
+fn a_ten_second_recording_holds_every_frame_map_and_plan() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let file = dir.path().join("episode.rrd");
+    let mut config = run_config(
+        "worlds/room.xml",
+        PlannerKind::RtGuide,
+        10.0,
+        dir.path().join("episode"),
+    );
+    config.test_views = 0;
+    config.rerun = RerunTarget {
+        file: Some(file.clone()),
+        connect: None,
+        map_every: 1,
+    };
+    let metrics = run_episode(&config, &mut |_| {}).expect("episode runs");
+    let entities = rows_per_entity(&file);
+    let rows = |entity: &str| entities.get(entity).map_or(0, |e| e.0);
+    let columns = |entity: &str| {
+        entities
+            .get(entity)
+            .map(|e| e.1.clone())
+            .unwrap_or_default()
+    };
+
+    // Every frame: the pinhole at its pose, the image, the depth, the path so far.
+    assert!(metrics.frames >= 50, "{} frames", metrics.frames);
+    for entity in [
+        "/world/camera/rgb",
+        "/world/camera/depth",
+        "/world/robot/path",
+    ] {
+        assert_eq!(rows(entity), metrics.frames, "{entity}: {entities:?}");
+    }
+    assert!(columns("/world/camera/rgb").contains("Image:buffer"));
+    assert!(columns("/world/camera/depth").contains("DepthImage:meter"));
+    let camera = columns("/world/camera");
+    assert!(
+        camera.contains("Pinhole:image_from_camera") && camera.contains("Transform3D:mat3x3"),
+        "{camera}"
+    );
+    assert_eq!(rows("/world/camera"), metrics.frames);
+    // Every mapping step: the map, in colour and by uncertainty.
+    assert!(metrics.mapping_steps >= 9, "{}", metrics.mapping_steps);
+    for entity in ["/world/map/colour", "/world/map/uncertainty"] {
+        assert_eq!(rows(entity), metrics.mapping_steps, "{entity}");
+        assert!(columns(entity).contains("Points3D:positions"));
+    }
+    // Every plan: its candidates and the one chosen (a plan per think that did not fail).
+    let plans = rows("/world/plan/chosen");
+    let failures: usize = metrics.plan_failures.values().sum();
+    assert!(
+        plans >= 1 && plans + failures <= metrics.mapping_steps,
+        "{plans} plans"
+    );
+    assert_eq!(rows("/world/plan/candidates"), plans);
+    assert_eq!(rows("/timing/mapping_ms"), metrics.mapping_steps);
+    assert_eq!(rows("/metrics/gaussians"), metrics.mapping_steps);
+}
+
+#[cfg(feature = "rerun")]
+#[test]
+fn a_recording_inside_the_episode_folder_or_over_a_file_is_refused() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("episode");
+    let mut config = run_config("worlds/room.xml", PlannerKind::RtGuide, 1.0, out.clone());
+    config.test_views = 0;
+    config.rerun.map_every = 1;
+    config.rerun.file = Some(out.join("inside.rrd"));
+    let error = run_episode(&config, &mut |_| {}).expect_err("refused");
+    assert!(
+        error.to_string().contains("inside the episode folder"),
+        "{error}"
+    );
+    let existing = dir.path().join("old.rrd");
+    std::fs::write(&existing, b"earlier").expect("write");
+    config.rerun.file = Some(existing.clone());
+    config.out = dir.path().join("second");
+    let error = run_episode(&config, &mut |_| {}).expect_err("refused");
+    assert!(error.to_string().contains("--overwrite"), "{error}");
+    assert_eq!(std::fs::read(&existing).expect("read"), b"earlier");
+}
+
+#[cfg(not(feature = "rerun"))]
+#[test]
+fn a_recording_without_the_rerun_feature_says_how_to_build_one() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut config = run_config(
+        "worlds/room.xml",
+        PlannerKind::RtGuide,
+        1.0,
+        dir.path().join("episode"),
+    );
+    config.test_views = 0;
+    config.rerun.map_every = 1;
+    config.rerun.file = Some(dir.path().join("episode.rrd"));
+    let error = run_episode(&config, &mut |_| {}).expect_err("refused");
+    assert!(error.to_string().contains("--features rerun"), "{error}");
+}
