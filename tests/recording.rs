@@ -155,3 +155,53 @@ fn a_recording_without_the_rerun_feature_says_how_to_build_one() {
     let error = run_episode(&config, &mut |_| {}).expect_err("refused");
     assert!(error.to_string().contains("--features rerun"), "{error}");
 }
+
+#[cfg(feature = "rerun")]
+#[test]
+fn a_live_viewer_receives_what_a_file_would_hold() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    // A free port: bound, read back, released for rerun's server.
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .expect("a free port")
+        .port();
+    let saved = dir.path().join("live.rrd");
+    // rerun's own server, saving what it receives: what a viewer would show.
+    let mut server = std::process::Command::new(repo_path(".venv/bin/rerun"))
+        .args(["--port", &port.to_string(), "--save"])
+        .arg(&saved)
+        .env("RERUN_ANALYTICS", "0")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("rerun's server starts");
+    // Until it listens.
+    let listening = (0..100).any(|_| {
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        std::net::TcpStream::connect(("127.0.0.1", port)).is_ok()
+    });
+    let mut config = run_config(
+        "worlds/room.xml",
+        PlannerKind::RtGuide,
+        3.0,
+        dir.path().join("episode"),
+    );
+    config.test_views = 0;
+    config.rerun = RerunTarget {
+        file: None,
+        connect: Some(format!("127.0.0.1:{port}")),
+        map_every: 1,
+    };
+    let metrics = listening.then(|| run_episode(&config, &mut |_| {}));
+    // The server writes as it receives; give it a moment before reading the file.
+    std::thread::sleep(std::time::Duration::from_secs(2));
+    let _ = server.kill();
+    let _ = server.wait();
+    let metrics = metrics
+        .expect("rerun's server listens")
+        .expect("episode runs");
+    let entities = rows_per_entity(&saved);
+    let rows = |entity: &str| entities.get(entity).map_or(0, |e| e.0);
+    assert_eq!(rows("/world/camera/rgb"), metrics.frames, "{entities:?}");
+    assert_eq!(rows("/world/map/colour"), metrics.mapping_steps);
+}
