@@ -408,3 +408,45 @@ impl RerunLog {
 fn le_bytes(units: &[u16]) -> Vec<u8> {
     units.iter().flat_map(|u| u.to_le_bytes()).collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn depth_units_are_the_dataset_scale_and_zero_where_there_is_no_return() {
+        let depth = [0.0, 1.0, 2.34567, f32::NAN, -1.0, 20.0];
+        let units = depth_units(&depth);
+        assert_eq!(units[0], 0);
+        assert_eq!(units[1], 5000);
+        assert!((f32::from(units[2]) / DEPTH_PER_METRE - 2.34567).abs() <= 0.5 / DEPTH_PER_METRE);
+        assert_eq!(units[3], 0);
+        assert_eq!(units[4], 0);
+        // Beyond the 16-bit range (13.1 m) it saturates instead of wrapping.
+        assert_eq!(units[5], u16::MAX);
+    }
+
+    #[test]
+    fn the_uncertainty_ramp_runs_blue_to_red_between_the_percentiles() {
+        let values: Vec<f32> = (0..=100).map(|i| i as f32).collect();
+        let (low, high) = uncertainty_range(&values);
+        assert_eq!((low, high), (5.0, 95.0));
+        assert_eq!(uncertainty_colour(0.0, low, high), [0, 0, 255]);
+        assert_eq!(uncertainty_colour(50.0, low, high), [0, 255, 0]);
+        assert_eq!(uncertainty_colour(100.0, low, high), [255, 0, 0]);
+        assert_eq!(uncertainty_colour(1.0, 2.0, 2.0), [128, 128, 128]);
+        assert_eq!(uncertainty_range(&[f32::NAN]), (0.0, 0.0));
+    }
+
+    #[test]
+    fn a_viewer_address_becomes_its_grpc_url() {
+        assert_eq!(
+            viewer_url("127.0.0.1:9876"),
+            "rerun+http://127.0.0.1:9876/proxy"
+        );
+        assert_eq!(
+            viewer_url("rerun+http://host:1/proxy"),
+            "rerun+http://host:1/proxy"
+        );
+    }
+}
