@@ -602,8 +602,10 @@ fn wall_map() -> GaussianMap {
 }
 
 fn planners() -> Vec<Box<dyn Planner>> {
-    let mut rt = PlannerConfig::default();
-    rt.mount = mount(64, 48);
+    let rt = PlannerConfig {
+        mount: mount(64, 48),
+        ..PlannerConfig::default()
+    };
     vec![
         Box::new(RtGuidePlanner::new(rt, CollisionEngine::Grid)),
         Box::new(fbe()),

@@ -239,7 +239,7 @@ impl Data {
                 direction.as_ptr(),
                 group_mask.as_ptr(),
                 // Static geoms count (an mjtByte before MuJoCo 4, a C bool from 4 on).
-                true.into(),
+                c_flag(true),
                 exclude_body.map_or(-1, |b| b as i32),
                 &mut geom,
                 // MuJoCo 4 also reports the surface normal at the hit; we need no normal.
@@ -281,4 +281,10 @@ fn slice_mut<'a, T>(ptr: *mut T, len: usize) -> &'a mut [T] {
     }
     // SAFETY: as in `slice`; callers hold `&mut Data`, so the borrow is exclusive.
     unsafe { std::slice::from_raw_parts_mut(ptr, len) }
+}
+
+/// A C flag argument from a bool, whatever MuJoCo's type for it (`mjtByte` before 4, `bool`
+/// from 4 on): `.into()` would be a no-op, and a lint, under MuJoCo 4.
+fn c_flag<T: From<bool>>(value: bool) -> T {
+    T::from(value)
 }

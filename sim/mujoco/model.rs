@@ -348,7 +348,7 @@ impl Model {
             Shape::Box
         } else if is(sys::mjtGeom::mjGEOM_MESH) {
             let mesh = array(m.geom_dataid, m.ngeom)[geom];
-            if mesh >= 0 && i64::from(mesh) < m.nmesh as i64 {
+            if mesh >= 0 && i64::from(mesh) < count(m.nmesh) {
                 Shape::Mesh(mesh as usize)
             } else {
                 Shape::Other
@@ -392,7 +392,7 @@ impl Model {
                 rgba[4 * geom + 2],
                 rgba[4 * geom + 3],
             ],
-            (material >= 0 && i64::from(material) < m.nmat as i64).then_some(material as usize),
+            (material >= 0 && i64::from(material) < count(m.nmat)).then_some(material as usize),
         )
     }
 
@@ -417,7 +417,7 @@ impl Model {
                 rgba[4 * material + 2],
                 rgba[4 * material + 3],
             ],
-            texture: (texture >= 0 && i64::from(texture) < m.ntex as i64)
+            texture: (texture >= 0 && i64::from(texture) < count(m.ntex))
                 .then_some(texture as usize),
             repeat: [repeat[2 * material], repeat[2 * material + 1]],
             uniform: is_set(array(m.mat_texuniform, m.nmat)[material]),
@@ -606,6 +606,12 @@ fn is_set(flag: bool) -> bool {
 #[cfg(not(mujoco_4))]
 fn is_set(flag: u8) -> bool {
     flag != 0
+}
+
+/// A model count as i64, whatever MuJoCo's type for it (`int` before 3.x, the 64-bit `mjtSize`
+/// from 3.x on): a cast would be a no-op, and a lint, under the newer MuJoCo.
+fn count(n: impl Into<i64>) -> i64 {
+    n.into()
 }
 
 /// A model array of `count` elements (`int` sizes before MuJoCo 4, `mjtSize` from 4 on).

@@ -136,7 +136,7 @@ mod tests {
     fn standing_or_jiggling_is_no_progress_but_a_look_around_is() {
         assert!(stalled_after(10, |_| 0.3));
         // +-60 degrees back and forth: two thirds of a half turn swept.
-        assert!(stalled_after(10, |t| if (t as usize) % 2 == 0 {
+        assert!(stalled_after(10, |t| if (t as usize).is_multiple_of(2) {
             1.0
         } else {
             -1.0
