@@ -205,3 +205,41 @@ fn a_live_viewer_receives_what_a_file_would_hold() {
     assert_eq!(rows("/world/camera/rgb"), metrics.frames, "{entities:?}");
     assert_eq!(rows("/world/map/colour"), metrics.mapping_steps);
 }
+
+#[cfg(feature = "rerun")]
+#[test]
+fn a_recorded_drive_logs_every_frame_it_writes() {
+    use splatloop::camera::SensorConfig;
+    use splatloop::record::{record, RecordConfig};
+    let dir = tempfile::tempdir().expect("temp dir");
+    let file = dir.path().join("drive.rrd");
+    let config = RecordConfig {
+        world: repo_path("worlds/room.xml"),
+        controls: "circle".into(),
+        duration: 2.0,
+        frame_rate: 5.0,
+        seed: 0,
+        sensor: SensorConfig::default(),
+        start: None,
+        overwrite: false,
+        rerun: RerunTarget {
+            file: Some(file.clone()),
+            connect: None,
+            map_every: 1,
+        },
+        out: dir.path().join("drive"),
+    };
+    let summary = record(&config, &mut |_| {}).expect("recording");
+    let entities = rows_per_entity(&file);
+    let rows = |entity: &str| entities.get(entity).map_or(0, |e| e.0);
+    for entity in [
+        "/world/camera",
+        "/world/camera/rgb",
+        "/world/camera/depth",
+        "/world/robot/path",
+    ] {
+        assert_eq!(rows(entity), summary.frames, "{entity}: {entities:?}");
+    }
+    // An open-loop drive has no map and no plans.
+    assert_eq!(rows("/world/map/colour") + rows("/world/plan/chosen"), 0);
+}
