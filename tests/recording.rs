@@ -6,11 +6,27 @@
 
 use crate::support::run_config;
 use splatloop::episode::{run_episode, PlannerKind};
+use splatloop::rerun_log::RerunTarget;
 #[cfg(feature = "rerun")]
-use {
-    crate::support::repo_path, splatloop::rerun_log::RerunTarget, std::collections::BTreeMap,
-    std::path::Path,
-};
+use {crate::support::repo_path, std::collections::BTreeMap, std::path::Path};
+
+/// A room episode of `budget` simulated seconds in `dir`/episode, without hidden views (the
+/// recording is what is checked), recording to `rerun`.
+fn room_episode(
+    dir: &std::path::Path,
+    budget: f64,
+    rerun: RerunTarget,
+) -> splatloop::episode::RunConfig {
+    let mut config = run_config(
+        "worlds/room.xml",
+        PlannerKind::RtGuide,
+        budget,
+        dir.join("episode"),
+    );
+    config.test_views = 0;
+    config.rerun = rerun;
+    config
+}
 
 #[cfg(feature = "rerun")]
 /// Rows per entity path and the data columns seen there, from `rerun rrd print`'s summary
@@ -59,18 +75,15 @@ fn rows_per_entity(file: &Path) -> BTreeMap<String, (usize, String)> {
 fn a_ten_second_recording_holds_every_frame_map_and_plan() {
     let dir = tempfile::tempdir().expect("temp dir");
     let file = dir.path().join("episode.rrd");
-    let mut config = run_config(
-        "worlds/room.xml",
-        PlannerKind::RtGuide,
+    let config = room_episode(
+        dir.path(),
         10.0,
-        dir.path().join("episode"),
+        RerunTarget {
+            file: Some(file.clone()),
+            connect: None,
+            map_every: 1,
+        },
     );
-    config.test_views = 0;
-    config.rerun = RerunTarget {
-        file: Some(file.clone()),
-        connect: None,
-        map_every: 1,
-    };
     let metrics = run_episode(&config, &mut |_| {}).expect("episode runs");
     let entities = rows_per_entity(&file);
     let rows = |entity: &str| entities.get(entity).map_or(0, |e| e.0);
@@ -120,11 +133,12 @@ fn a_ten_second_recording_holds_every_frame_map_and_plan() {
 #[test]
 fn a_recording_inside_the_episode_folder_or_over_a_file_is_refused() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let out = dir.path().join("episode");
-    let mut config = run_config("worlds/room.xml", PlannerKind::RtGuide, 1.0, out.clone());
-    config.test_views = 0;
-    config.rerun.map_every = 1;
-    config.rerun.file = Some(out.join("inside.rrd"));
+    let inside = RerunTarget {
+        file: Some(dir.path().join("episode").join("inside.rrd")),
+        connect: None,
+        map_every: 1,
+    };
+    let mut config = room_episode(dir.path(), 1.0, inside);
     let error = run_episode(&config, &mut |_| {}).expect_err("refused");
     assert!(
         error.to_string().contains("inside the episode folder"),
@@ -143,15 +157,12 @@ fn a_recording_inside_the_episode_folder_or_over_a_file_is_refused() {
 #[test]
 fn a_recording_without_the_rerun_feature_says_how_to_build_one() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let mut config = run_config(
-        "worlds/room.xml",
-        PlannerKind::RtGuide,
-        1.0,
-        dir.path().join("episode"),
-    );
-    config.test_views = 0;
-    config.rerun.map_every = 1;
-    config.rerun.file = Some(dir.path().join("episode.rrd"));
+    let wanted = RerunTarget {
+        file: Some(dir.path().join("episode.rrd")),
+        connect: None,
+        map_every: 1,
+    };
+    let config = room_episode(dir.path(), 1.0, wanted);
     let error = run_episode(&config, &mut |_| {}).expect_err("refused");
     assert!(error.to_string().contains("--features rerun"), "{error}");
 }
@@ -180,18 +191,15 @@ fn a_live_viewer_receives_what_a_file_would_hold() {
         std::thread::sleep(std::time::Duration::from_millis(100));
         std::net::TcpStream::connect(("127.0.0.1", port)).is_ok()
     });
-    let mut config = run_config(
-        "worlds/room.xml",
-        PlannerKind::RtGuide,
+    let config = room_episode(
+        dir.path(),
         3.0,
-        dir.path().join("episode"),
+        RerunTarget {
+            file: None,
+            connect: Some(format!("127.0.0.1:{port}")),
+            map_every: 1,
+        },
     );
-    config.test_views = 0;
-    config.rerun = RerunTarget {
-        file: None,
-        connect: Some(format!("127.0.0.1:{port}")),
-        map_every: 1,
-    };
     let metrics = listening.then(|| run_episode(&config, &mut |_| {}));
     // The server writes as it receives; give it a moment before reading the file.
     std::thread::sleep(std::time::Duration::from_secs(2));
