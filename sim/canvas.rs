@@ -4,6 +4,25 @@
 use crate::error::{Result, SimError};
 use std::path::Path;
 
+/// Blue -> green -> yellow -> red for t in [0, 1]: the one ramp every picture and recording
+/// shows uncertainty on, so trajectory.png and rerun's map read the same.
+pub(crate) fn ramp(t: f64) -> [u8; 3] {
+    let stops = [
+        [40.0, 70.0, 200.0],
+        [40.0, 170.0, 90.0],
+        [240.0, 210.0, 40.0],
+        [210.0, 40.0, 40.0],
+    ];
+    let x = if t.is_nan() {
+        0.0
+    } else {
+        t.clamp(0.0, 1.0) * 3.0
+    };
+    let k = (x.floor() as usize).min(2);
+    let f = x - k as f64;
+    std::array::from_fn(|c| (stops[k][c] + f * (stops[k + 1][c] - stops[k][c])) as u8)
+}
+
 /// An RGB canvas, white when new; over a rectangle of the floor (`lo`, `scale` pixels per
 /// metre) y (north) points up the picture. A chart uses pixel coordinates (`blank`).
 pub(crate) struct Canvas {

@@ -3,7 +3,7 @@
 //! Gaussians above the floor are dots coloured by uncertainty rank (blue low, through green
 //! and yellow, red high); the path is a dark line from a green start to a red end.
 
-use crate::canvas::Canvas;
+use crate::canvas::{ramp, Canvas};
 use crate::error::Result;
 use crate::evaluate::WORLD_GROUPS;
 use crate::robot::Pose2;
@@ -15,20 +15,6 @@ use std::path::Path;
 /// Pixels per metre at most, and the longest side of the picture in pixels.
 const MAX_SCALE: f64 = 60.0;
 const MAX_SIDE: f64 = 1200.0;
-
-/// Blue -> green -> yellow -> red for t in [0, 1].
-fn ramp(t: f64) -> [u8; 3] {
-    let stops = [
-        [40.0, 70.0, 200.0],
-        [40.0, 170.0, 90.0],
-        [240.0, 210.0, 40.0],
-        [210.0, 40.0, 40.0],
-    ];
-    let x = t.clamp(0.0, 1.0) * 3.0;
-    let k = (x.floor() as usize).min(2);
-    let f = x - k as f64;
-    std::array::from_fn(|c| (stops[k][c] + f * (stops[k + 1][c] - stops[k][c])) as u8)
-}
 
 /// The floor rectangle a picture shows: (min x, min y), (max x, max y), metres.
 pub type Extent = ([f64; 2], [f64; 2]);

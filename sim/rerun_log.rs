@@ -8,7 +8,7 @@
 //! - `world/plan/candidates` and `world/plan/chosen` — every planning step's candidate
 //!   trajectories and the one followed;
 //! - `world/map/colour` and `world/map/uncertainty` — the Gaussian map as points (their
-//!   colours; their uncertainty on a blue-to-red ramp), every `map_every` mapping steps;
+//!   colours; their uncertainty on trajectory.png's blue-to-red ramp), every `map_every` mapping steps;
 //! - `metrics/coverage`, `metrics/gaussians` and `timing/{camera,mapping,planning}_ms` scalars.
 //!
 //! The SDK is a large dependency, so it sits behind the `rerun` cargo feature (scripts/setup.sh
@@ -107,19 +107,13 @@ pub fn viewer_url(address: &str) -> String {
     }
 }
 
-/// The colour of an uncertainty on the recording's ramp: blue at or below `low`, red at or
-/// above `high`, through green; grey when the map has no spread to show.
+/// The colour of an uncertainty on trajectory.png's ramp: blue at or below `low`, red at or
+/// above `high`, through green and yellow; grey when the map has no spread to show.
 pub fn uncertainty_colour(value: f32, low: f32, high: f32) -> [u8; 3] {
     if high.partial_cmp(&low) != Some(std::cmp::Ordering::Greater) || !value.is_finite() {
         return [128, 128, 128];
     }
-    let t = ((value - low) / (high - low)).clamp(0.0, 1.0);
-    let (r, g, b) = if t < 0.5 {
-        (0.0, 2.0 * t, 1.0 - 2.0 * t)
-    } else {
-        (2.0 * t - 1.0, 2.0 - 2.0 * t, 0.0)
-    };
-    [(r * 255.0) as u8, (g * 255.0) as u8, (b * 255.0) as u8]
+    crate::canvas::ramp(f64::from((value - low) / (high - low)))
 }
 
 /// The ramp's ends for a map: the 5th and 95th percentiles of its uncertainty, so a few
@@ -431,9 +425,11 @@ mod tests {
         let values: Vec<f32> = (0..=100).map(|i| i as f32).collect();
         let (low, high) = uncertainty_range(&values);
         assert_eq!((low, high), (5.0, 95.0));
-        assert_eq!(uncertainty_colour(0.0, low, high), [0, 0, 255]);
-        assert_eq!(uncertainty_colour(50.0, low, high), [0, 255, 0]);
-        assert_eq!(uncertainty_colour(100.0, low, high), [255, 0, 0]);
+        // trajectory.png's ramp: blue below `low`, red above `high`, and half way between its
+        // green and yellow stops in the middle.
+        assert_eq!(uncertainty_colour(0.0, low, high), [40, 70, 200]);
+        assert_eq!(uncertainty_colour(50.0, low, high), [140, 190, 65]);
+        assert_eq!(uncertainty_colour(100.0, low, high), [210, 40, 40]);
         assert_eq!(uncertainty_colour(1.0, 2.0, 2.0), [128, 128, 128]);
         assert_eq!(uncertainty_range(&[f32::NAN]), (0.0, 0.0));
     }
