@@ -332,6 +332,13 @@ struct EpisodeOptions {
     /// extension; off is the paper's straight edges).
     #[arg(long)]
     rtguide_free_space_edges: bool,
+    /// RT-GuIDE: give unseen space utility, a viewpoint beside each frontier of a 2D evidence
+    /// grid with the utility of the most uncertain region (a flagged extension; off is the
+    /// paper's regions of Gaussians only).
+    // Left out of a sweep's settings when off, so sweeps begun before the flag existed resume.
+    #[arg(long)]
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    rtguide_frontier_regions: bool,
     /// agslam: weight of the localisation term log det(J^T J) in the goal score (the
     /// authors' code's 0.5; 0 is the paper's Table 3 ablation).
     #[arg(long, default_value_t = 0.5)]
@@ -787,6 +794,7 @@ fn run_run(args: RunArgs) -> Result<Option<u8>> {
             },
             rtguide_commit: args.options.rtguide_commit,
             rtguide_free_space_edges: args.options.rtguide_free_space_edges,
+            rtguide_frontier_regions: args.options.rtguide_frontier_regions,
             pose_weight: args.options.pose_weight,
             agslam_candidates: args.options.agslam_candidates,
             agslam_train: match args.options.agslam_train.as_str() {

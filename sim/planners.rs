@@ -80,6 +80,9 @@ pub struct PlannerOptions {
     /// RT-GuIDE: reach viewpoints along the free space of an evidence grid when their straight
     /// edge is blocked (off: the paper's straight edges).
     pub rtguide_free_space_edges: bool,
+    /// RT-GuIDE: a viewpoint beside each frontier of an evidence grid, so unseen space has
+    /// utility (off: the paper's regions of Gaussians only).
+    pub rtguide_frontier_regions: bool,
     /// agslam: weight of the localisation term log det(J^T J) (0.5, the authors' code; 0 is
     /// their Table 3 ablation).
     pub pose_weight: f64,
@@ -95,6 +98,7 @@ impl Default for PlannerOptions {
             rtguide_uncertainty: UncertaintyNorm::L2,
             rtguide_commit: 0.0,
             rtguide_free_space_edges: false,
+            rtguide_frontier_regions: false,
             pose_weight: AgslamConfig::default().pose_weight,
             agslam_candidates: AgslamConfig::default().candidates,
             agslam_train: TrainMode::Incremental,
@@ -135,6 +139,7 @@ pub fn build(
             }
             config.commit_seconds = options.rtguide_commit;
             config.free_space_edges = options.rtguide_free_space_edges;
+            config.frontier_regions = options.rtguide_frontier_regions;
             Box::new(RtGuidePlanner::new(config, CollisionEngine::Grid))
         }
         PlannerKind::Fbe => Box::new(FbePlanner::new(

@@ -758,3 +758,57 @@ fn a_free_space_path_goes_through_the_gap_and_keeps_its_clearance() {
         .any(|s| s[0][0] < 2.0 && s[1][0] >= 2.0 && (1.8..2.8).contains(&s[1][1])));
     assert!(view.path_length(target) > 2.0 + 1.0);
 }
+
+#[test]
+fn a_frontier_viewpoint_is_the_admitted_cell_nearest_the_cluster_by_brute_force() {
+    use autonomy::explore::fbe::FrontierView;
+    // 6 x 4 m: the west 3 m seen and free (a box in it), the east unknown, walls round.
+    let (w, h) = (120, 80);
+    let mut g = ClassGrid::filled([w, h], [0.0, 0.0], 0.05, CellClass::Unknown);
+    for c in 0..g.len() {
+        let (x, y) = (c % w, c / w);
+        let edge = x == 0 || y == 0 || x == w - 1 || y == h - 1;
+        let furniture = (40..=52).contains(&x) && (30..=44).contains(&y);
+        g.classes[c] = if edge || furniture {
+            CellClass::Occupied
+        } else if x < 60 {
+            CellClass::Free
+        } else {
+            CellClass::Unknown
+        };
+    }
+    let robot = Pose2 {
+        x: 0.8,
+        y: 2.0,
+        theta: 0.0,
+    };
+    let view = FrontierView::new(g.clone(), robot, 0.3, 0.3);
+    assert!(!view.clusters.is_empty());
+    for (radius, clearance) in [(1.0, 0.35), (0.4, 0.35), (1.5, 0.6)] {
+        for cluster in &view.clusters {
+            let c = cluster.centroid;
+            let brute = (0..g.len())
+                .filter(|i| {
+                    let p = g.centre(*i);
+                    (p[0] - c[0]).hypot(p[1] - c[1]) <= radius
+                        && view.clearance[*i] >= clearance
+                        && view.distance[*i].is_finite()
+                })
+                .min_by(|a, b| {
+                    let (pa, pb) = (g.centre(*a), g.centre(*b));
+                    (pa[0] - c[0])
+                        .hypot(pa[1] - c[1])
+                        .total_cmp(&(pb[0] - c[0]).hypot(pb[1] - c[1]))
+                        .then(view.distance[*a].total_cmp(&view.distance[*b]))
+                        .then(a.cmp(b))
+                })
+                .map(|i| g.centre(i));
+            assert_eq!(view.nearest_goal(c, radius, clearance), brute);
+        }
+    }
+    // The frontier runs along x = 3 m; its viewpoint keeps the clearance on the seen side.
+    let goal = view
+        .nearest_goal(view.clusters[0].centroid, 1.0, 0.35)
+        .expect("a goal by the frontier");
+    assert!((2.5..3.0).contains(&goal[0]), "{goal:?}");
+}

@@ -65,12 +65,21 @@ pub struct PlannerConfig {
     /// frames, as FBE's) when their straight edge into the graph is blocked (off: the paper's
     /// straight edges; a flagged extension, `--rtguide-free-space-edges`).
     pub free_space_edges: bool,
+    /// Give unseen space utility: a viewpoint beside each frontier cluster of the evidence
+    /// grid, facing it, with the utility of the most uncertain region (off: the paper's
+    /// regions of Gaussians only, so space nothing has been seen in draws nobody; a flagged
+    /// extension, `--rtguide-frontier-regions`).
+    pub frontier_regions: bool,
 }
 
 /// The robot's footprint radius marked free in the evidence grid, metres.
 const FOOTPRINT: f64 = 0.3;
 /// Clearance from occupied cells of a free-space edge, metres.
 const PATH_CLEARANCE: f64 = 0.3;
+/// A frontier viewpoint lies within this of its cluster's centroid, metres (FBE's goal radius).
+const FRONTIER_GOAL_RADIUS: f64 = 1.0;
+/// ... with this clearance from anything not free, metres (FBE's goal clearance).
+const FRONTIER_GOAL_CLEARANCE: f64 = 0.35;
 
 impl Default for PlannerConfig {
     fn default() -> Self {
@@ -92,6 +101,7 @@ impl Default for PlannerConfig {
             information_cell: 1.0,
             commit_seconds: 0.0,
             free_space_edges: false,
+            frontier_regions: false,
         }
     }
 }
@@ -138,7 +148,7 @@ pub struct RtGuidePlanner {
     target_plans: usize,
     /// Targets the robot has reached.
     visited: Vec<[f64; 2]>,
-    /// The evidence grid of free-space edges (when on).
+    /// The evidence grid of free-space edges and frontier viewpoints (when either is on).
     evidence: Option<EvidenceGrid>,
 }
 
@@ -155,8 +165,7 @@ impl RtGuidePlanner {
             },
             engine,
         );
-        let evidence = config
-            .free_space_edges
+        let evidence = (config.free_space_edges || config.frontier_regions)
             .then(|| EvidenceGrid::new(EvidenceConfig::default()));
         let tally = Tally::new(config.region_size);
         let counter = ViewCounter::new(config.mount, config.information_cell);
@@ -216,9 +225,15 @@ impl RtGuidePlanner {
         self.graph.clear_viewpoints();
         let source = self.graph.visit([robot.x, robot.y], cfg.odometry_spacing);
         let cfg = self.config.clone();
+        let view = self.evidence.as_mut().map(|grid| {
+            grid.mark_free_disc([robot.x, robot.y], FOOTPRINT);
+            FrontierView::new(grid.classes(), robot, PATH_CLEARANCE, FOOTPRINT)
+        });
+        let mut most_uncertain = 0.0f64;
         let k = &cfg.mount.intrinsics;
         let half_fov = (k.cx / k.fx).atan().min((k.cy / k.fy).atan());
         for region in self.tally.regions() {
+            most_uncertain = most_uncertain.max(region.omega);
             // The shortest distance at which the region's bounding sphere fits the view.
             let reach = cfg.region_size * 3f64.sqrt() / 2.0 / half_fov.sin();
             let mut candidates = Vec::new();
@@ -252,6 +267,9 @@ impl RtGuidePlanner {
                 }
             }
         }
+        if let Some(view) = view.as_ref().filter(|_| cfg.frontier_regions) {
+            self.add_frontier_viewpoints(view, robot, most_uncertain);
+        }
         let previous = self.target.filter(|t| {
             (t[0] - robot.x).hypot(t[1] - robot.y) >= cfg.min_viewpoint_distance
                 && self.target_plans < cfg.keep_target_plans
@@ -262,10 +280,7 @@ impl RtGuidePlanner {
         let mut checked = 0;
         // With free-space edges, a viewpoint whose straight edge is blocked is still reached
         // along the evidence grid's free space from the robot.
-        let view = self.evidence.as_mut().map(|grid| {
-            grid.mark_free_disc([robot.x, robot.y], FOOTPRINT);
-            FrontierView::new(grid.classes(), robot, PATH_CLEARANCE, FOOTPRINT)
-        });
+        let free_space = view.as_ref().filter(|_| cfg.free_space_edges);
         let mut free_path: Option<Vec<[f64; 2]>> = None;
         let (best, path) = loop {
             let (best, path, _) = self
@@ -287,7 +302,7 @@ impl RtGuidePlanner {
             if self.executor.segment_free(from, to, EDGE_STEP) {
                 break (best, path);
             }
-            if let Some(view) = &view {
+            if let Some(view) = free_space {
                 if view.path_length(to).is_finite() {
                     free_path = Some(view.guidance(robot, to));
                     break (best, path);
@@ -353,6 +368,47 @@ impl RtGuidePlanner {
     }
 }
 
+impl RtGuidePlanner {
+    /// The frontier extension's viewpoints: beside each frontier cluster the free cell nearest
+    /// its centroid, facing it, worth `omega` (unseen space is taken to be as uncertain as the
+    /// most uncertain region seen), cut like the regions' viewpoints when the robot stands at
+    /// it, when it is inside the map's Gaussians, or after it was reached once.
+    fn add_frontier_viewpoints(&mut self, view: &FrontierView, robot: Pose2, omega: f64) {
+        let cfg = &self.config;
+        let goals: Vec<([f64; 2], f64)> = view
+            .clusters
+            .iter()
+            .filter_map(|cluster| {
+                let c = cluster.centroid;
+                let p = view.nearest_goal(c, FRONTIER_GOAL_RADIUS, FRONTIER_GOAL_CLEARANCE)?;
+                Some((p, (c[1] - p[1]).atan2(c[0] - p[0])))
+            })
+            .filter(|(p, _)| (p[0] - robot.x).hypot(p[1] - robot.y) >= cfg.min_viewpoint_distance)
+            .collect();
+        let height = cfg.collision.centre_height;
+        let points: Vec<[f32; 3]> = goals
+            .iter()
+            .map(|(p, _)| [p[0] as f32, p[1] as f32, height])
+            .collect();
+        let hits = self.executor.collisions(&points);
+        for ((p, heading), hit) in goals.into_iter().zip(hits) {
+            if hit {
+                continue;
+            }
+            let seen = self
+                .visited
+                .iter()
+                .any(|v| (v[0] - p[0]).hypot(v[1] - p[1]) < cfg.min_viewpoint_distance);
+            let utility = if seen {
+                omega * cfg.visited_utility_factor
+            } else {
+                omega
+            };
+            self.graph.add_viewpoint(p, utility, heading);
+        }
+    }
+}
+
 impl crate::explore::Planner for RtGuidePlanner {
     fn name(&self) -> &'static str {
         "rtguide"
@@ -369,6 +425,7 @@ impl crate::explore::Planner for RtGuidePlanner {
             "information_cell": c.information_cell,
             "commit_seconds": c.commit_seconds,
             "free_space_edges": c.free_space_edges,
+            "frontier_regions": c.frontier_regions,
         })
     }
 
