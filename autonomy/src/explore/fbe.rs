@@ -166,38 +166,34 @@ impl FrontierView {
         Vec::new()
     }
 
-    /// The goal nearest `centre` within `radius` that has the clearance and a path from the
-    /// robot (ties: the shorter path, then the lower cell): a deterministic stand-in for
-    /// sampling, for planners that want one viewpoint per cluster.
-    pub fn nearest_goal(&self, centre: [f64; 2], radius: f64, clearance: f64) -> Option<[f64; 2]> {
+    /// The goals within `radius` of `centre` that have the clearance and a path from the
+    /// robot, nearest `centre` first (ties: the shorter path, then the lower cell): a
+    /// deterministic stand-in for sampling, for planners that want one viewpoint per cluster
+    /// and check the goals against more than the grid.
+    pub fn goals_near(&self, centre: [f64; 2], radius: f64, clearance: f64) -> Vec<[f64; 2]> {
         let g = &self.grid;
         let reach = (radius / g.cell).ceil() as i64 + 1;
         let (cx, cy) = (
             ((centre[0] - g.origin[0]) / g.cell).floor() as i64,
             ((centre[1] - g.origin[1]) / g.cell).floor() as i64,
         );
-        let mut best: Option<(f64, f64, usize)> = None;
+        let mut found: Vec<(f64, f64, usize)> = Vec::new();
         for y in (cy - reach).max(0)..=(cy + reach).min(g.size[1] as i64 - 1) {
             for x in (cx - reach).max(0)..=(cx + reach).min(g.size[0] as i64 - 1) {
                 let c = y as usize * g.size[0] + x as usize;
                 let p = g.centre(c);
                 let d = (p[0] - centre[0]).hypot(p[1] - centre[1]);
-                if d > radius || self.clearance[c] < clearance || !self.distance[c].is_finite() {
-                    continue;
-                }
-                let key = (d, self.distance[c], c);
-                if best.is_none_or(|b| {
-                    key.0
-                        .total_cmp(&b.0)
-                        .then(key.1.total_cmp(&b.1))
-                        .then(key.2.cmp(&b.2))
-                        .is_lt()
-                }) {
-                    best = Some(key);
+                if d <= radius && self.clearance[c] >= clearance && self.distance[c].is_finite() {
+                    found.push((d, self.distance[c], c));
                 }
             }
         }
-        best.map(|(_, _, c)| g.centre(c))
+        found.sort_by(|a, b| {
+            a.0.total_cmp(&b.0)
+                .then(a.1.total_cmp(&b.1))
+                .then(a.2.cmp(&b.2))
+        });
+        found.into_iter().map(|(_, _, c)| g.centre(c)).collect()
     }
 
     /// Path length from the robot to `p` over the grid, metres (infinite when none).

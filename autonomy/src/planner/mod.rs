@@ -66,9 +66,10 @@ pub struct PlannerConfig {
     /// straight edges; a flagged extension, `--rtguide-free-space-edges`).
     pub free_space_edges: bool,
     /// Give unseen space utility: a viewpoint beside each frontier cluster of the evidence
-    /// grid, facing it, with the utility of the most uncertain region (off: the paper's
-    /// regions of Gaussians only, so space nothing has been seen in draws nobody; a flagged
-    /// extension, `--rtguide-frontier-regions`).
+    /// grid, facing it, with the uncertainty of a Gaussian nothing has seen (half a region
+    /// side; off: the paper's regions of Gaussians only, so space nothing has been seen in
+    /// draws nobody; a flagged extension, `--rtguide-frontier-regions`). With it, candidates
+    /// also keep the robot's radius from cells the grid has not seen.
     pub frontier_regions: bool,
 }
 
@@ -76,10 +77,21 @@ pub struct PlannerConfig {
 const FOOTPRINT: f64 = 0.3;
 /// Clearance from occupied cells of a free-space edge, metres.
 const PATH_CLEARANCE: f64 = 0.3;
-/// A frontier viewpoint lies within this of its cluster's centroid, metres (FBE's goal radius).
-const FRONTIER_GOAL_RADIUS: f64 = 1.0;
+/// A frontier viewpoint lies within this of the frontier cell it looks at, metres (FBE's goal
+/// radius once expanded).
+const FRONTIER_GOAL_RADIUS: f64 = 1.5;
+/// Goals of one cluster checked against the Gaussians per plan.
+const FRONTIER_GOAL_CHECKS: usize = 64;
 /// ... with this clearance from anything not free, metres (FBE's goal clearance).
 const FRONTIER_GOAL_CLEARANCE: f64 = 0.35;
+/// The utility of unseen space, per metre of region side. Omega is the mean displacement of a
+/// region's Gaussians; a Gaussian in space nothing has seen is known only to lie somewhere in
+/// its region, on average about half a side (0.48) from the region's centre. A frontier opens
+/// that much in proportion to its length against a region's side (a whole side at most).
+const UNSEEN_UNCERTAINTY: f64 = 0.5;
+/// A frontier whose cell nearest its centroid is this near a cleared one's is not offered
+/// again, metres (FBE's blacklist radius).
+const CLEARED_FRONTIER_RADIUS: f64 = 0.5;
 
 impl Default for PlannerConfig {
     fn default() -> Self {
@@ -106,7 +118,7 @@ impl Default for PlannerConfig {
     }
 }
 
-use crate::explore::evidence::{EvidenceConfig, EvidenceGrid};
+use crate::explore::evidence::{CellClass, ClassGrid, EvidenceConfig, EvidenceGrid};
 pub use crate::explore::executor::{CollisionEngine, Executor, ExecutorConfig};
 use crate::explore::fbe::FrontierView;
 pub use crate::explore::{PlanFailure, Recovery};
@@ -150,6 +162,13 @@ pub struct RtGuidePlanner {
     visited: Vec<[f64; 2]>,
     /// The evidence grid of free-space edges and frontier viewpoints (when either is on).
     evidence: Option<EvidenceGrid>,
+    /// This plan's frontier viewpoints with the frontier cells they look at.
+    frontier_offers: Vec<([f64; 2], [f64; 2])>,
+    /// The frontier cell the target looks at, when it is a frontier viewpoint.
+    target_frontier: Option<[f64; 2]>,
+    /// Frontier cells reached or given up: the camera cannot clear them from there, so they
+    /// are offered no more (FBE's blacklist).
+    cleared_frontiers: Vec<[f64; 2]>,
 }
 
 impl RtGuidePlanner {
@@ -179,6 +198,9 @@ impl RtGuidePlanner {
             target_plans: 0,
             visited: Vec::new(),
             evidence,
+            frontier_offers: Vec::new(),
+            target_frontier: None,
+            cleared_frontiers: Vec::new(),
         }
     }
 
@@ -219,7 +241,12 @@ impl RtGuidePlanner {
             if (t[0] - robot.x).hypot(t[1] - robot.y) < cfg.min_viewpoint_distance {
                 self.visited.push(t);
                 self.target = None;
+                self.cleared_frontiers.extend(self.target_frontier.take());
             }
+        }
+        // A frontier target kept for as long as any target may be, and not reached, is given up.
+        if self.target_plans >= cfg.keep_target_plans {
+            self.cleared_frontiers.extend(self.target_frontier.take());
         }
         // Viewpoints first: clearing them renumbers the nodes after them.
         self.graph.clear_viewpoints();
@@ -229,11 +256,9 @@ impl RtGuidePlanner {
             grid.mark_free_disc([robot.x, robot.y], FOOTPRINT);
             FrontierView::new(grid.classes(), robot, PATH_CLEARANCE, FOOTPRINT)
         });
-        let mut most_uncertain = 0.0f64;
         let k = &cfg.mount.intrinsics;
         let half_fov = (k.cx / k.fx).atan().min((k.cy / k.fy).atan());
         for region in self.tally.regions() {
-            most_uncertain = most_uncertain.max(region.omega);
             // The shortest distance at which the region's bounding sphere fits the view.
             let reach = cfg.region_size * 3f64.sqrt() / 2.0 / half_fov.sin();
             let mut candidates = Vec::new();
@@ -268,7 +293,8 @@ impl RtGuidePlanner {
             }
         }
         if let Some(view) = view.as_ref().filter(|_| cfg.frontier_regions) {
-            self.add_frontier_viewpoints(view, robot, most_uncertain);
+            let unseen = UNSEEN_UNCERTAINTY * cfg.region_size;
+            self.add_frontier_viewpoints(view, robot, unseen);
         }
         let previous = self.target.filter(|t| {
             (t[0] - robot.x).hypot(t[1] - robot.y) >= cfg.min_viewpoint_distance
@@ -279,8 +305,8 @@ impl RtGuidePlanner {
         // viewpoint then lies outside the known space and A* would push into the wall).
         let mut checked = 0;
         // With free-space edges, a viewpoint whose straight edge is blocked is still reached
-        // along the evidence grid's free space from the robot.
-        let free_space = view.as_ref().filter(|_| cfg.free_space_edges);
+        // along the evidence grid's free space from the robot; so is a frontier viewpoint
+        // always, since the grid placed it (through a door, say) where it has a path.
         let mut free_path: Option<Vec<[f64; 2]>> = None;
         let (best, path) = loop {
             let (best, path, _) = self
@@ -302,7 +328,8 @@ impl RtGuidePlanner {
             if self.executor.segment_free(from, to, EDGE_STEP) {
                 break (best, path);
             }
-            if let Some(view) = free_space {
+            let frontier = self.frontier_offers.iter().any(|(p, _)| *p == to);
+            if let Some(view) = view.as_ref().filter(|_| cfg.free_space_edges || frontier) {
                 if view.path_length(to).is_finite() {
                     free_path = Some(view.guidance(robot, to));
                     break (best, path);
@@ -318,6 +345,11 @@ impl RtGuidePlanner {
             previous.is_some_and(|p| (p[0] - target[0]).hypot(p[1] - target[1]) < KEEP_RADIUS);
         self.target_plans = if same { self.target_plans + 1 } else { 1 };
         self.target = Some(target);
+        self.target_frontier = self
+            .frontier_offers
+            .iter()
+            .find(|(p, _)| *p == target)
+            .map(|(_, c)| *c);
         let (guidance, goal) = match free_path {
             Some(guidance) => {
                 let goal = crate::explore::executor::along(&guidance, cfg.search.horizon);
@@ -332,7 +364,15 @@ impl RtGuidePlanner {
         };
 
         let t1 = Instant::now();
-        let trajectories = self.executor.candidates(robot, goal);
+        let mut trajectories = self.executor.candidates(robot, goal);
+        // Sent into rooms it has not seen, the robot also keeps its radius from the grid's
+        // unseen cells: the Gaussian check alone takes the unseen side of a table for floor.
+        if let Some(view) = view.as_ref().filter(|_| cfg.frontier_regions) {
+            let unseen = UnseenDistance::new(&view.grid);
+            let period = cfg.search.primitives.duration;
+            let radius = f64::from(cfg.collision.robot_radius);
+            trajectories.retain(|t| unseen.keeps_clear(t, period, radius, robot));
+        }
         if trajectories.is_empty() {
             return Err(PlanFailure::NoCollisionFreeCandidate);
         }
@@ -368,44 +408,106 @@ impl RtGuidePlanner {
     }
 }
 
+/// Per cell of the evidence grid, the distance to the nearest cell no ray has crossed.
+struct UnseenDistance<'a> {
+    grid: &'a ClassGrid,
+    distance: Vec<f64>,
+}
+
+impl<'a> UnseenDistance<'a> {
+    fn new(grid: &'a ClassGrid) -> Self {
+        let seen: Vec<bool> = grid
+            .classes
+            .iter()
+            .map(|c| *c != CellClass::Unknown)
+            .collect();
+        UnseenDistance {
+            grid,
+            distance: crate::explore::frontier::clearance(grid, &seen),
+        }
+    }
+
+    /// Whether every sample point of `t` (10 cm apart) is `radius` from unseen cells; points
+    /// within the footprint of `start` pass (the robot stands there), points off the grid fail.
+    fn keeps_clear(&self, t: &search::Trajectory, period: f64, radius: f64, start: Pose2) -> bool {
+        t.controls.iter().zip(&t.states).all(|(u, s)| {
+            search::segment_points(s, u, period, 0.1).iter().all(|p| {
+                (p.x - start.x).hypot(p.y - start.y) <= FOOTPRINT
+                    || self
+                        .grid
+                        .cell_of([p.x, p.y])
+                        .is_some_and(|c| self.distance[c] >= radius)
+            })
+        })
+    }
+}
+
 impl RtGuidePlanner {
     /// The frontier extension's viewpoints: beside each frontier cluster the free cell nearest
-    /// its centroid, facing it, worth `omega` (unseen space is taken to be as uncertain as the
-    /// most uncertain region seen), cut like the regions' viewpoints when the robot stands at
-    /// it, when it is inside the map's Gaussians, or after it was reached once.
+    /// its cell nearest its centroid that is clear of the map's Gaussians, facing that cell, worth `omega` for a
+    /// frontier a region's side long and in proportion for shorter ones; none where the robot
+    /// stands or for a frontier cleared before.
     fn add_frontier_viewpoints(&mut self, view: &FrontierView, robot: Pose2, omega: f64) {
         let cfg = &self.config;
-        let goals: Vec<([f64; 2], f64)> = view
-            .clusters
-            .iter()
-            .filter_map(|cluster| {
-                let c = cluster.centroid;
-                let p = view.nearest_goal(c, FRONTIER_GOAL_RADIUS, FRONTIER_GOAL_CLEARANCE)?;
-                Some((p, (c[1] - p[1]).atan2(c[0] - p[0])))
-            })
-            .filter(|(p, _)| (p[0] - robot.x).hypot(p[1] - robot.y) >= cfg.min_viewpoint_distance)
-            .collect();
         let height = cfg.collision.centre_height;
-        let points: Vec<[f32; 3]> = goals
-            .iter()
-            .map(|(p, _)| [p[0] as f32, p[1] as f32, height])
-            .collect();
-        let hits = self.executor.collisions(&points);
-        for ((p, heading), hit) in goals.into_iter().zip(hits) {
-            if hit {
+        self.frontier_offers.clear();
+        for cluster in &view.clusters {
+            // The frontier cell nearest the centroid: a cluster that bends round a room has
+            // its centroid out in the seen floor, where there is nothing to look at.
+            let Some(c) = cluster
+                .cells
+                .iter()
+                .map(|cell| view.grid.centre(*cell))
+                .min_by(|a, b| {
+                    let m = cluster.centroid;
+                    (a[0] - m[0])
+                        .hypot(a[1] - m[1])
+                        .total_cmp(&(b[0] - m[0]).hypot(b[1] - m[1]))
+                })
+            else {
+                continue;
+            };
+            let cleared = self
+                .cleared_frontiers
+                .iter()
+                .any(|k| (k[0] - c[0]).hypot(k[1] - c[1]) < CLEARED_FRONTIER_RADIUS);
+            if cleared {
                 continue;
             }
-            let seen = self
-                .visited
+            // The goals nearest the frontier first; at most FRONTIER_GOAL_CHECKS of them,
+            // spread over the list, are checked against the Gaussians, and the first clear wins.
+            let goals = view.goals_near(c, FRONTIER_GOAL_RADIUS, FRONTIER_GOAL_CLEARANCE);
+            let stride = goals.len().div_ceil(FRONTIER_GOAL_CHECKS).max(1);
+            let tried: Vec<[f64; 2]> = goals.into_iter().step_by(stride).collect();
+            let points: Vec<[f32; 3]> = tried
                 .iter()
-                .any(|v| (v[0] - p[0]).hypot(v[1] - p[1]) < cfg.min_viewpoint_distance);
-            let utility = if seen {
-                omega * cfg.visited_utility_factor
-            } else {
-                omega
+                .map(|p| [p[0] as f32, p[1] as f32, height])
+                .collect();
+            let hits = self.executor.collisions(&points);
+            let Some(p) = tried
+                .iter()
+                .zip(hits)
+                .find(|(_, hit)| !hit)
+                .map(|(p, _)| *p)
+            else {
+                continue;
             };
-            self.graph.add_viewpoint(p, utility, heading);
+            if (p[0] - robot.x).hypot(p[1] - robot.y) < cfg.min_viewpoint_distance {
+                continue;
+            }
+            let length = cluster.cells.len() as f64 * view.grid.cell;
+            let utility = omega * (length / cfg.region_size).min(1.0);
+            self.graph
+                .add_viewpoint(p, utility, (c[1] - p[1]).atan2(c[0] - p[0]));
+            self.frontier_offers.push((p, c));
         }
+        tracing::debug!(
+            "frontier viewpoints: {} of {} clusters ({} cleared before): {:.2?}",
+            self.frontier_offers.len(),
+            view.clusters.len(),
+            self.cleared_frontiers.len(),
+            self.frontier_offers
+        );
     }
 }
 
