@@ -333,8 +333,9 @@ struct EpisodeOptions {
     #[arg(long)]
     rtguide_free_space_edges: bool,
     /// RT-GuIDE: give unseen space utility, a viewpoint beside each frontier of a 2D evidence
-    /// grid with the utility of the most uncertain region (a flagged extension; off is the
-    /// paper's regions of Gaussians only).
+    /// grid worth the uncertainty of unseen space, reached along the grid's free space, and
+    /// candidates clear of unseen cells (a flagged extension; off is the paper's regions of
+    /// Gaussians only).
     // Left out of a sweep's settings when off, so sweeps begun before the flag existed resume.
     #[arg(long)]
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]

@@ -411,7 +411,7 @@ impl RtGuidePlanner {
     }
 }
 
-/// Per cell of the evidence grid, the distance to the nearest cell no ray has crossed.
+/// Per cell of the evidence grid, the distance to the nearest cell no ray has crossed yet.
 struct UnseenDistance<'a> {
     grid: &'a ClassGrid,
     distance: Vec<f64>,
