@@ -595,6 +595,100 @@ mod tests {
     }
 
     #[test]
+    fn frontier_viewpoints_are_worth_their_length_and_cleared_ones_are_not_offered() {
+        use crate::explore::frontier;
+        // 8 x 4 m seen floor with walls round it, except two openings onto unseen space on
+        // its east wall: 2 m (a whole region side's worth at 2.5 m regions: 0.8) and 0.7 m.
+        let (w, h) = (160, 80);
+        let mut g = ClassGrid::filled([w, h], [0.0, 0.0], 0.05, CellClass::Free);
+        for c in 0..g.len() {
+            let (x, y) = (c % w, c / w);
+            let wall = x <= 1 || y <= 1 || y >= h - 2 || (x >= w - 4 && x < w - 2);
+            if x >= w - 2 {
+                g.classes[c] = CellClass::Unknown;
+            } else if wall && !(10..50).contains(&y) && !(60..74).contains(&y) {
+                g.classes[c] = CellClass::Occupied;
+            }
+        }
+        let robot = Pose2 {
+            x: 1.0,
+            y: 2.0,
+            theta: 0.0,
+        };
+        let view = FrontierView::new(g.clone(), robot, PATH_CLEARANCE, FOOTPRINT);
+        assert_eq!(view.clusters.len(), 2, "{:?}", view.clusters.len());
+        let mut planner = RtGuidePlanner::new(
+            PlannerConfig {
+                frontier_regions: true,
+                ..PlannerConfig::default()
+            },
+            CollisionEngine::Grid,
+        );
+        let omega = UNSEEN_UNCERTAINTY * planner.config.region_size;
+        planner.add_frontier_viewpoints(&view, robot, omega);
+        let offered = |planner: &RtGuidePlanner| -> Vec<([f64; 2], f64)> {
+            planner
+                .graph
+                .nodes
+                .iter()
+                .filter_map(|n| match n.kind {
+                    graph::NodeKind::Viewpoint { omega, .. } => Some((n.position, omega)),
+                    _ => None,
+                })
+                .collect()
+        };
+        let first = offered(&planner);
+        assert_eq!(first.len(), 2);
+        for cluster in &view.clusters {
+            // Brute force: the cluster's length in cells, and its viewpoint beside it.
+            let length = cluster.cells.len() as f64 * g.cell;
+            let expected = omega * (length / planner.config.region_size).min(1.0);
+            let (p, worth) = first
+                .iter()
+                .min_by(|a, b| {
+                    let d = |q: [f64; 2]| {
+                        (q[0] - cluster.centroid[0]).hypot(q[1] - cluster.centroid[1])
+                    };
+                    d(a.0).total_cmp(&d(b.0))
+                })
+                .copied()
+                .expect("a viewpoint");
+            assert!((worth - expected).abs() < 1e-12, "{worth} vs {expected}");
+            assert!(
+                (p[0] - cluster.centroid[0]).hypot(p[1] - cluster.centroid[1])
+                    <= FRONTIER_GOAL_RADIUS + 0.05
+            );
+            assert!(
+                frontier::clearance(&g, &view.free)[g.cell_of(p).expect("on the grid")]
+                    >= FRONTIER_GOAL_CLEARANCE
+            );
+        }
+        // Once the longer one is cleared it is no longer offered; the shorter still is.
+        let longer = view
+            .clusters
+            .iter()
+            .max_by_key(|c| c.cells.len())
+            .expect("a cluster");
+        let anchor = longer
+            .cells
+            .iter()
+            .map(|c| g.centre(*c))
+            .min_by(|a, b| {
+                let m = longer.centroid;
+                (a[0] - m[0])
+                    .hypot(a[1] - m[1])
+                    .total_cmp(&(b[0] - m[0]).hypot(b[1] - m[1]))
+            })
+            .expect("a cell");
+        planner.cleared_frontiers.push(anchor);
+        planner.graph.clear_viewpoints();
+        planner.add_frontier_viewpoints(&view, robot, omega);
+        let second = offered(&planner);
+        assert_eq!(second.len(), 1);
+        assert!(second[0].1 < first.iter().map(|f| f.1).fold(0.0, f64::max));
+    }
+
+    #[test]
     fn candidates_keep_the_radius_from_unseen_cells_as_a_brute_force_scan_says() {
         // 5 x 3 m seen, with an unseen 1 x 1 m block at x in [3, 4], y in [1, 2].
         let (w, h) = (100, 60);
