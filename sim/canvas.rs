@@ -13,11 +13,7 @@ pub(crate) fn ramp(t: f64) -> [u8; 3] {
         [240.0, 210.0, 40.0],
         [210.0, 40.0, 40.0],
     ];
-    let x = if t.is_nan() {
-        0.0
-    } else {
-        t.clamp(0.0, 1.0) * 3.0
-    };
+    let x = t.clamp(0.0, 1.0) * 3.0;
     let k = (x.floor() as usize).min(2);
     let f = x - k as f64;
     std::array::from_fn(|c| (stops[k][c] + f * (stops[k + 1][c] - stops[k][c])) as u8)

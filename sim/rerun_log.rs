@@ -8,7 +8,8 @@
 //! - `world/plan/candidates` and `world/plan/chosen` — every planning step's candidate
 //!   trajectories and the one followed;
 //! - `world/map/colour` and `world/map/uncertainty` — the Gaussian map as points (their
-//!   colours; their uncertainty on trajectory.png's blue-to-red ramp), every `map_every` mapping steps;
+//!   colours; their uncertainty on trajectory.png's blue-to-red ramp), every `map_every`
+//!   mapping steps;
 //! - `metrics/coverage`, `metrics/gaussians` and `timing/{camera,mapping,planning}_ms` scalars.
 //!
 //! The SDK is a large dependency, so it sits behind the `rerun` cargo feature (scripts/setup.sh

@@ -18,6 +18,20 @@ pub struct Cluster {
     pub centroid: [f64; 2],
 }
 
+impl Cluster {
+    /// Its cell nearest its centroid (ties: the lower cell): a cluster that bends round a room
+    /// has its centroid out on seen floor, where there is nothing to look at.
+    pub fn anchor(&self, grid: &ClassGrid) -> [f64; 2] {
+        let m = self.centroid;
+        let d = |p: [f64; 2]| (p[0] - m[0]).hypot(p[1] - m[1]);
+        self.cells
+            .iter()
+            .map(|c| grid.centre(*c))
+            .min_by(|a, b| d(*a).total_cmp(&d(*b)))
+            .unwrap_or(m)
+    }
+}
+
 /// Clusters need more cells than this (AG-SLAM's code).
 pub const MIN_CLUSTER_CELLS: usize = 10;
 /// The distance offset of the choice, cells.

@@ -446,30 +446,16 @@ impl<'a> UnseenDistance<'a> {
 }
 
 impl RtGuidePlanner {
-    /// The frontier extension's viewpoints: beside each frontier cluster the free cell nearest
-    /// its cell nearest its centroid that is clear of the map's Gaussians, facing that cell, worth `omega` for a
-    /// frontier a region's side long and in proportion for shorter ones; none where the robot
-    /// stands or for a frontier cleared before.
+    /// The frontier extension's viewpoints: per frontier cluster, the free cell nearest its
+    /// anchor (`Cluster::anchor`) that is clear of the map's Gaussians, facing the anchor,
+    /// worth `omega` for a frontier a region's side long and in proportion for shorter ones;
+    /// none where the robot stands or for a frontier cleared before.
     fn add_frontier_viewpoints(&mut self, view: &FrontierView, robot: Pose2, omega: f64) {
         let cfg = &self.config;
         let height = cfg.collision.centre_height;
         self.frontier_offers.clear();
         for cluster in &view.clusters {
-            // The frontier cell nearest the centroid: a cluster that bends round a room has
-            // its centroid out in the seen floor, where there is nothing to look at.
-            let Some(c) = cluster
-                .cells
-                .iter()
-                .map(|cell| view.grid.centre(*cell))
-                .min_by(|a, b| {
-                    let m = cluster.centroid;
-                    (a[0] - m[0])
-                        .hypot(a[1] - m[1])
-                        .total_cmp(&(b[0] - m[0]).hypot(b[1] - m[1]))
-                })
-            else {
-                continue;
-            };
+            let c = cluster.anchor(&view.grid);
             let cleared = self
                 .cleared_frontiers
                 .iter()
@@ -669,18 +655,7 @@ mod tests {
             .iter()
             .max_by_key(|c| c.cells.len())
             .expect("a cluster");
-        let anchor = longer
-            .cells
-            .iter()
-            .map(|c| g.centre(*c))
-            .min_by(|a, b| {
-                let m = longer.centroid;
-                (a[0] - m[0])
-                    .hypot(a[1] - m[1])
-                    .total_cmp(&(b[0] - m[0]).hypot(b[1] - m[1]))
-            })
-            .expect("a cell");
-        planner.cleared_frontiers.push(anchor);
+        planner.cleared_frontiers.push(longer.anchor(&g));
         planner.graph.clear_viewpoints();
         planner.add_frontier_viewpoints(&view, robot, omega);
         let second = offered(&planner);
