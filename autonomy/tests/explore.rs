@@ -813,3 +813,112 @@ fn goals_by_a_frontier_are_the_admitted_cells_nearest_the_cluster_by_brute_force
     let goal = view.goals_near(view.clusters[0].centroid, 1.0, 0.35)[0];
     assert!((2.5..3.0).contains(&goal[0]), "{goal:?}");
 }
+
+#[test]
+fn line_of_sight_on_the_grid_matches_the_exact_segment_test() {
+    // 4 x 4 m free with a wall block at x in [1.95, 2.05], y in [0, 2.5].
+    let (w, h) = (80, 80);
+    let mut g = ClassGrid::filled([w, h], [0.0, 0.0], 0.05, CellClass::Free);
+    for c in 0..g.len() {
+        let (x, y) = (c % w, c / w);
+        if (39..41).contains(&x) && y < 50 {
+            g.classes[c] = CellClass::Occupied;
+        }
+    }
+    // Exact: does the segment meet the wall's rectangle (slab test)?
+    let hits_wall = |a: [f64; 2], b: [f64; 2]| -> bool {
+        let (lo, hi) = ([1.95, 0.0], [2.05, 2.5]);
+        let (mut t0, mut t1) = (0.0f64, 1.0f64);
+        for i in 0..2 {
+            let d = b[i] - a[i];
+            if d.abs() < 1e-12 {
+                if a[i] < lo[i] || a[i] > hi[i] {
+                    return false;
+                }
+            } else {
+                let (ta, tb) = ((lo[i] - a[i]) / d, (hi[i] - a[i]) / d);
+                t0 = t0.max(ta.min(tb));
+                t1 = t1.min(ta.max(tb));
+            }
+        }
+        t0 <= t1
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let (mut seen, mut hidden) = (0, 0);
+    for _ in 0..2000 {
+        let a = [rng.gen_range(0.1..3.9), rng.gen_range(0.1..3.9)];
+        let b = [rng.gen_range(0.1..3.9), rng.gen_range(0.1..3.9)];
+        // Segments that pass within a quarter cell of the wall's corner are left out.
+        let corner: [f64; 2] = [2.0, 2.5];
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let t = (((corner[0] - a[0]) * dx + (corner[1] - a[1]) * dy) / (dx * dx + dy * dy))
+            .clamp(0.0, 1.0);
+        let near = (a[0] + t * dx - corner[0]).hypot(a[1] + t * dy - corner[1]) < 0.1;
+        let inside = |p: [f64; 2]| (1.9..2.1).contains(&p[0]) && p[1] < 2.6;
+        if near || inside(a) || inside(b) {
+            continue;
+        }
+        let exact = !hits_wall(a, b);
+        assert_eq!(g.line_of_sight(a, b), exact, "{a:?} -> {b:?}");
+        if exact {
+            seen += 1;
+        } else {
+            hidden += 1;
+        }
+    }
+    assert!(seen > 200 && hidden > 200, "{seen} seen, {hidden} hidden");
+    // An unseen cell blocks the view like an occupied one; off the grid blocks too.
+    let unseen = g.cell_of([1.0, 3.0]).expect("on the grid");
+    g.classes[unseen] = CellClass::Unknown;
+    assert!(!g.line_of_sight([0.5, 3.0], [1.5, 3.0]));
+    assert!(!g.line_of_sight([0.5, 3.5], [4.5, 3.5]));
+}
+
+#[test]
+fn the_lookahead_is_the_farthest_point_of_the_path_the_robot_sees_by_brute_force() {
+    use autonomy::explore::executor::{along, visible_along};
+    // The path goes north past the wall's end, east behind it and back south: the wall at
+    // x = 2 m, y < 2.5 m hides its last leg from the start.
+    let (w, h) = (80, 80);
+    let mut g = ClassGrid::filled([w, h], [0.0, 0.0], 0.05, CellClass::Free);
+    for c in 0..g.len() {
+        if (39..41).contains(&(c % w)) && c / w < 50 {
+            g.classes[c] = CellClass::Occupied;
+        }
+    }
+    let path: [[f64; 2]; 4] = [[1.0, 1.0], [1.0, 3.2], [3.0, 3.2], [3.0, 1.0]];
+    let sees = |p: [f64; 2]| g.line_of_sight(path[0], p);
+    let total: f64 = path
+        .windows(2)
+        .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+        .sum();
+    // Brute force: every centimetre along the path; the first hidden point lies past the
+    // turn, where the line of sight meets the wall's end.
+    let first_hidden = (1..=(total * 100.0) as usize)
+        .map(|i| i as f64 / 100.0)
+        .find(|s| !sees(along(&path, *s)))
+        .expect("the wall hides part of the path");
+    assert!(
+        first_hidden > 2.2 && first_hidden < total - 1.0,
+        "hidden from {first_hidden} m"
+    );
+    let step = 0.2;
+    for horizon in [1.0, 3.0, 3.7, 5.0, 8.0] {
+        let goal = visible_along(&path, horizon, step, sees);
+        let expected = along(&path, horizon.min(first_hidden));
+        // Within one step short of the brute force, never past it or past the horizon.
+        let d = (goal[0] - expected[0]).hypot(goal[1] - expected[1]);
+        assert!(
+            d <= step + 1e-9,
+            "horizon {horizon}: {goal:?} vs {expected:?}"
+        );
+        assert!(sees(goal), "{goal:?} is hidden");
+    }
+    // Short of the wall's shadow the goal is the plain lookahead; the first step is taken
+    // even when everything is hidden.
+    assert_eq!(visible_along(&path, 3.0, step, sees), along(&path, 3.0));
+    assert_eq!(
+        visible_along(&path, 3.0, step, |_| false),
+        along(&path, step)
+    );
+}

@@ -270,3 +270,31 @@ pub fn along(path: &[[f64; 2]], length: f64) -> [f64; 2] {
     }
     path.last().copied().unwrap_or([0.0, 0.0])
 }
+
+/// The farthest point up to `length` metres along `path` (a polyline from the robot) that
+/// `sees` (the robot's line of sight to it), tried every `step` metres and stopping at the
+/// first hidden one. Aimed at a point round a corner, the A*'s incomplete candidates end
+/// nearest it, against the wall beside the corner, and the robot never turns the corner; aimed
+/// at what the robot sees, it follows the path. The first step is taken even when hidden.
+pub fn visible_along(
+    path: &[[f64; 2]],
+    length: f64,
+    step: f64,
+    sees: impl Fn([f64; 2]) -> bool,
+) -> [f64; 2] {
+    let total: f64 = path
+        .windows(2)
+        .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+        .sum();
+    let reach = length.min(total);
+    let tries = (reach / step).ceil().max(1.0) as usize;
+    let mut goal = along(path, step.min(reach));
+    for k in 2..=tries {
+        let p = along(path, (k as f64 * step).min(reach));
+        if !sees(p) {
+            break;
+        }
+        goal = p;
+    }
+    goal
+}

@@ -27,6 +27,8 @@ use unicycle::{Pose2, UnicycleCommand};
 const EDGE_STEP: f64 = 0.1;
 /// Viewpoints tried per plan before the goal counts as unreachable.
 const MAX_EDGE_CHECKS: usize = 64;
+/// Spacing of the points tried as the A*'s goal along a grid path, metres.
+const LOOKAHEAD_STEP: f64 = 0.2;
 
 /// Settings of the planner (the paper's values by default).
 #[derive(Debug, Clone, PartialEq)]
@@ -356,7 +358,18 @@ impl RtGuidePlanner {
             .map(|(_, c)| *c);
         let (guidance, goal) = match free_path {
             Some(guidance) => {
-                let goal = crate::explore::executor::along(&guidance, cfg.search.horizon);
+                // A grid path turns corners (through doors): the A* aims at what the robot
+                // sees of it on the grid the path was found in.
+                let sees = |p: [f64; 2]| {
+                    view.as_ref()
+                        .is_some_and(|v| v.grid.line_of_sight([robot.x, robot.y], p))
+                };
+                let goal = crate::explore::executor::visible_along(
+                    &guidance,
+                    cfg.search.horizon,
+                    LOOKAHEAD_STEP,
+                    sees,
+                );
                 (guidance, goal)
             }
             None => {
