@@ -98,6 +98,9 @@ const UNSEEN_CLEARANCE: f64 = 0.22;
 /// A frontier whose cell nearest its centroid is this near a cleared one's is not offered
 /// again, metres (FBE's blacklist radius).
 const CLEARED_FRONTIER_RADIUS: f64 = 0.5;
+/// Give-ups after which a frontier is cleared for good: one it cannot reach is not retried
+/// for ever once it is the last one left.
+const MAX_FRONTIER_ATTEMPTS: usize = 3;
 
 impl Default for PlannerConfig {
     fn default() -> Self {
@@ -172,9 +175,14 @@ pub struct RtGuidePlanner {
     frontier_offers: Vec<([f64; 2], [f64; 2])>,
     /// The frontier cell the target looks at, when it is a frontier viewpoint.
     target_frontier: Option<[f64; 2]>,
-    /// Frontier cells reached or given up: the camera cannot clear them from there, so they
-    /// are offered no more (FBE's blacklist).
+    /// Frontier cells reached, or given up `MAX_FRONTIER_ATTEMPTS` times: offered no more
+    /// (FBE's blacklist).
     cleared_frontiers: Vec<[f64; 2]>,
+    /// Frontier cells given up since the offers last ran dry: offered again only when no
+    /// other frontier is, since a target is given up for the local planner's failures too.
+    set_aside_frontiers: Vec<[f64; 2]>,
+    /// Every give-up, to count a frontier's attempts.
+    given_up_frontiers: Vec<[f64; 2]>,
 }
 
 impl RtGuidePlanner {
@@ -207,6 +215,8 @@ impl RtGuidePlanner {
             frontier_offers: Vec::new(),
             target_frontier: None,
             cleared_frontiers: Vec::new(),
+            set_aside_frontiers: Vec::new(),
+            given_up_frontiers: Vec::new(),
         }
     }
 
@@ -251,13 +261,13 @@ impl RtGuidePlanner {
             }
         }
         // A frontier target kept for as long as any target may be, and not reached, is given up.
-        if self.target_plans >= cfg.keep_target_plans {
-            self.cleared_frontiers.extend(self.target_frontier.take());
+        if self.target_plans >= self.config.keep_target_plans {
+            self.give_up_target_frontier();
         }
         // Viewpoints first: clearing them renumbers the nodes after them.
         self.graph.clear_viewpoints();
-        let source = self.graph.visit([robot.x, robot.y], cfg.odometry_spacing);
         let cfg = self.config.clone();
+        let source = self.graph.visit([robot.x, robot.y], cfg.odometry_spacing);
         let view = self.evidence.as_mut().map(|grid| {
             grid.mark_free_disc([robot.x, robot.y], FOOTPRINT);
             FrontierView::new(grid.classes(), robot, PATH_CLEARANCE, FOOTPRINT)
@@ -499,18 +509,46 @@ impl RtGuidePlanner {
     /// The frontier extension's viewpoints: per frontier cluster, the free cell nearest its
     /// anchor (`Cluster::anchor`) that is clear of the map's Gaussians, facing the anchor,
     /// worth `omega` for a frontier a region's side long and in proportion for shorter ones;
-    /// none where the robot stands or for a frontier cleared before.
+    /// none where the robot stands or for a frontier cleared before, nor for one given up
+    /// before while any other frontier is offered.
     fn add_frontier_viewpoints(&mut self, view: &FrontierView, robot: Pose2, omega: f64) {
+        self.offer_frontiers(view, robot, omega);
+        if self.frontier_offers.is_empty() && !self.set_aside_frontiers.is_empty() {
+            self.set_aside_frontiers.clear();
+            self.offer_frontiers(view, robot, omega);
+        }
+    }
+
+    /// The target frontier, not reached, is set aside, or cleared on its last attempt.
+    fn give_up_target_frontier(&mut self) {
+        if let Some(f) = self.target_frontier.take() {
+            let attempts = 1 + self
+                .given_up_frontiers
+                .iter()
+                .filter(|k| (k[0] - f[0]).hypot(k[1] - f[1]) < CLEARED_FRONTIER_RADIUS)
+                .count();
+            self.given_up_frontiers.push(f);
+            if attempts >= MAX_FRONTIER_ATTEMPTS {
+                self.cleared_frontiers.push(f);
+            } else {
+                self.set_aside_frontiers.push(f);
+            }
+        }
+    }
+
+    /// One pass of `add_frontier_viewpoints`, skipping cleared and set-aside frontiers.
+    fn offer_frontiers(&mut self, view: &FrontierView, robot: Pose2, omega: f64) {
         let cfg = &self.config;
         let height = cfg.collision.centre_height;
         self.frontier_offers.clear();
         for cluster in &view.clusters {
             let c = cluster.anchor(&view.grid);
-            let cleared = self
+            let skipped = self
                 .cleared_frontiers
                 .iter()
+                .chain(&self.set_aside_frontiers)
                 .any(|k| (k[0] - c[0]).hypot(k[1] - c[1]) < CLEARED_FRONTIER_RADIUS);
-            if cleared {
+            if skipped {
                 continue;
             }
             // The goals nearest the frontier first; at most FRONTIER_GOAL_CHECKS of them,
@@ -711,6 +749,49 @@ mod tests {
         let second = offered(&planner);
         assert_eq!(second.len(), 1);
         assert!(second[0].1 < first.iter().map(|f| f.1).fold(0.0, f64::max));
+        // A given-up frontier is set aside while another is offered, offered again when none
+        // is, and cleared for good at its last attempt.
+        let shorter = view
+            .clusters
+            .iter()
+            .min_by_key(|c| c.cells.len())
+            .expect("a cluster")
+            .anchor(&g);
+        let worth = |planner: &mut RtGuidePlanner| -> Vec<f64> {
+            planner.graph.clear_viewpoints();
+            planner.add_frontier_viewpoints(&view, robot, omega);
+            offered(planner).iter().map(|o| o.1).collect()
+        };
+        let give_up = |planner: &mut RtGuidePlanner| {
+            planner.target_frontier = Some(shorter);
+            planner.give_up_target_frontier();
+        };
+        planner.cleared_frontiers.clear();
+        let both = worth(&mut planner);
+        let (high, low) = (both[0].max(both[1]), both[0].min(both[1]));
+        give_up(&mut planner);
+        assert_eq!(
+            worth(&mut planner),
+            vec![high],
+            "set aside while the other is offered"
+        );
+        planner.cleared_frontiers.push(longer.anchor(&g));
+        assert_eq!(
+            worth(&mut planner),
+            vec![low],
+            "offered again when no other is"
+        );
+        give_up(&mut planner);
+        assert_eq!(
+            worth(&mut planner),
+            vec![low],
+            "the second attempt is not the last"
+        );
+        give_up(&mut planner);
+        assert!(
+            worth(&mut planner).is_empty(),
+            "the third attempt clears it"
+        );
     }
 
     #[test]
