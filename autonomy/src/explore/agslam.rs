@@ -722,7 +722,8 @@ impl AgslamPlanner {
             return Decision::Fail(super::PlanFailure::GoalUnreachable);
         };
         self.goal = Some(goal);
-        match self.executor.drive_to(start, goal, &guidance) {
+        let sees = |p: [f64; 2]| view.grid.line_of_sight([start.x, start.y], p);
+        match self.executor.drive_to(start, goal, &guidance, sees) {
             Ok(mut plan) => {
                 plan.score = score;
                 plan.candidates = scored.len();

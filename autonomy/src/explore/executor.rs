@@ -22,6 +22,9 @@ pub enum CollisionEngine {
     Gpu(Box<GpuCollision>),
 }
 
+/// Spacing of the points tried as the A*'s goal along a guidance path, metres.
+pub const LOOKAHEAD_STEP: f64 = 0.2;
+
 /// Settings of the executor.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ExecutorConfig {
@@ -186,14 +189,16 @@ impl Executor {
     }
 
     /// Drives toward `target` along `guidance` (a polyline from the robot; the straight line
-    /// when empty): the A* aims at the point one horizon along the guidance and the
-    /// cheapest complete candidate is taken. Within the goal tolerance of the target the robot
-    /// turns in place to the target's heading instead.
+    /// when empty): the A* aims at the farthest point up to one horizon along the guidance
+    /// that the robot `sees` (`visible_along`) and the cheapest complete candidate is taken.
+    /// Within the goal tolerance of the target the robot turns in place to the target's
+    /// heading instead.
     pub fn drive_to(
         &self,
         robot: Pose2,
         target: Pose2,
         guidance: &[[f64; 2]],
+        sees: impl Fn([f64; 2]) -> bool,
     ) -> Result<Plan, PlanFailure> {
         self.check_start(&robot)?;
         let search = &self.config.search;
@@ -206,7 +211,7 @@ impl Executor {
         } else {
             path.push([target.x, target.y]);
         }
-        let goal = along(&path, search.horizon);
+        let goal = visible_along(&path, search.horizon, LOOKAHEAD_STEP, sees);
         let trajectories = self.candidates(robot, goal);
         let candidates = trajectories.len();
         let alternatives = trajectories.iter().map(|t| t.states.clone()).collect();

@@ -444,7 +444,8 @@ impl Planner for FbePlanner {
         };
         self.unreachable_plans = 0;
         let guidance = view.guidance(start, [goal.pose.x, goal.pose.y]);
-        match self.executor.drive_to(start, goal.pose, &guidance) {
+        let sees = |p: [f64; 2]| view.grid.line_of_sight([start.x, start.y], p);
+        match self.executor.drive_to(start, goal.pose, &guidance, sees) {
             Ok(mut plan) => {
                 plan.score = goal.utility;
                 plan.candidates = view.clusters.len();

@@ -27,8 +27,6 @@ use unicycle::{Pose2, UnicycleCommand};
 const EDGE_STEP: f64 = 0.1;
 /// Viewpoints tried per plan before the goal counts as unreachable.
 const MAX_EDGE_CHECKS: usize = 64;
-/// Spacing of the points tried as the A*'s goal along a grid path, metres.
-const LOOKAHEAD_STEP: f64 = 0.2;
 
 /// Settings of the planner (the paper's values by default).
 #[derive(Debug, Clone, PartialEq)]
@@ -377,7 +375,7 @@ impl RtGuidePlanner {
                 let goal = crate::explore::executor::visible_along(
                     &guidance,
                     cfg.search.horizon,
-                    LOOKAHEAD_STEP,
+                    crate::explore::executor::LOOKAHEAD_STEP,
                     sees,
                 );
                 (guidance, goal)
