@@ -330,15 +330,17 @@ struct EpisodeOptions {
     /// RT-GuIDE: reach a viewpoint along the free space of a 2D evidence grid (built from
     /// the depth frames) when its straight edge into the graph crosses the map (a flagged
     /// extension; off is the paper's straight edges).
-    #[arg(long)]
+    #[arg(long, action = clap::ArgAction::Set, num_args = 0..=1, default_value_t = false,
+          default_missing_value = "true", value_name = "BOOL")]
     rtguide_free_space_edges: bool,
     /// RT-GuIDE: give unseen space utility, a viewpoint beside each frontier of a 2D evidence
     /// grid worth the uncertainty of unseen space, reached along the grid's free space, and
-    /// candidates clear of unseen cells (a flagged extension; off is the paper's regions of
-    /// Gaussians only).
-    // Left out of a sweep's settings when off, so sweeps begun before the flag existed resume.
-    #[arg(long)]
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    /// candidates clear of unseen cells (a flagged extension, on by default: the paper's
+    /// regions of Gaussians alone leave rooms unentered; `false` is the paper's planner).
+    // Sweeps begun before the flag existed ran the paper's planner: their settings lack it.
+    #[arg(long, action = clap::ArgAction::Set, num_args = 0..=1, default_value_t = true,
+          default_missing_value = "true", value_name = "BOOL")]
+    #[serde(default)]
     rtguide_frontier_regions: bool,
     /// agslam: weight of the localisation term log det(J^T J) in the goal score (the
     /// authors' code's 0.5; 0 is the paper's Table 3 ablation).
@@ -1409,4 +1411,53 @@ fn run_record(args: RecordArgs) -> Result<()> {
         summary.collision_steps
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The options as `splatloop run` parses them from `words`.
+    fn run_options(words: &[String]) -> EpisodeOptions {
+        let mut argv = vec!["splatloop".to_string(), "run".to_string()];
+        argv.extend_from_slice(words);
+        match Cli::try_parse_from(argv).expect("the words parse").command {
+            Command::Run(args) => args.options,
+            _ => panic!("not a run"),
+        }
+    }
+
+    #[test]
+    fn a_sweeps_option_words_parse_back_to_its_options_whatever_the_switches_defaults() {
+        let defaults = run_options(&[]);
+        // The paper's planner is a switch turned off that is on by default.
+        assert!(defaults.rtguide_frontier_regions && !defaults.rtguide_free_space_edges);
+        for (frontier_regions, free_space_edges) in
+            [(false, false), (false, true), (true, false), (true, true)]
+        {
+            let options = EpisodeOptions {
+                rtguide_frontier_regions: frontier_regions,
+                rtguide_free_space_edges: free_space_edges,
+                ..defaults.clone()
+            };
+            let map = match serde_json::to_value(&options).expect("serialises") {
+                serde_json::Value::Object(map) => map,
+                other => panic!("not an object: {other}"),
+            };
+            let words = splatloop::sweep::spec::option_words(&map);
+            assert_eq!(run_options(&words), options, "{words:?}");
+        }
+        // A bare switch is on; sweeps from before the frontier switch (no key) read as the
+        // paper's planner.
+        let bare = run_options(&["--rtguide-free-space-edges".into()]);
+        assert!(bare.rtguide_free_space_edges);
+        let mut old = match serde_json::to_value(&defaults).expect("serialises") {
+            serde_json::Value::Object(map) => map,
+            other => panic!("not an object: {other}"),
+        };
+        old.remove("rtguide_frontier_regions");
+        let read: EpisodeOptions =
+            serde_json::from_value(serde_json::Value::Object(old)).expect("reads");
+        assert!(!read.rtguide_frontier_regions);
+    }
 }

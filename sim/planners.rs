@@ -81,7 +81,7 @@ pub struct PlannerOptions {
     /// edge is blocked (off: the paper's straight edges).
     pub rtguide_free_space_edges: bool,
     /// RT-GuIDE: a viewpoint beside each frontier of an evidence grid, so unseen space has
-    /// utility (off: the paper's regions of Gaussians only).
+    /// utility (on by default; off: the paper's regions of Gaussians only).
     pub rtguide_frontier_regions: bool,
     /// agslam: weight of the localisation term log det(J^T J) (0.5, the authors' code; 0 is
     /// their Table 3 ablation).
@@ -98,7 +98,7 @@ impl Default for PlannerOptions {
             rtguide_uncertainty: UncertaintyNorm::L2,
             rtguide_commit: 0.0,
             rtguide_free_space_edges: false,
-            rtguide_frontier_regions: false,
+            rtguide_frontier_regions: true,
             pose_weight: AgslamConfig::default().pose_weight,
             agslam_candidates: AgslamConfig::default().candidates,
             agslam_train: TrainMode::Incremental,

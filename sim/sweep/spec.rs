@@ -318,14 +318,16 @@ impl Sweep {
 }
 
 /// Run options as command-line words: `{"latency": "none", "rtguide_free_space_edges": true}`
-/// is `--latency none --rtguide-free-space-edges`; a false switch is left out.
+/// is `--latency none --rtguide-free-space-edges`; a false switch is written out
+/// (`--rtguide-frontier-regions false`), since a switch may be on by default.
 pub fn option_words(options: &Map<String, Value>) -> Vec<String> {
     let mut words = Vec::new();
     for (key, value) in options {
         let flag = format!("--{}", key.replace('_', "-"));
         match value {
             Value::Bool(true) => words.push(flag),
-            Value::Bool(false) | Value::Null => {}
+            Value::Bool(false) => words.extend([flag, "false".into()]),
+            Value::Null => {}
             Value::String(s) => words.extend([flag, s.clone()]),
             other => words.extend([flag, other.to_string()]),
         }
