@@ -511,10 +511,7 @@ impl AgslamPlanner {
     fn path_views(&self, guidance: &[[f64; 2]], goal: Pose2) -> (Vec<Pose2>, usize) {
         let c = &self.config;
         let step = c.action_length * c.information_every as f64;
-        let total: f64 = guidance
-            .windows(2)
-            .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
-            .sum();
+        let total = super::executor::polyline_length(guidance);
         let length = total.min(c.action_length * c.path_actions as f64);
         let actions = ((length / c.action_length).round() as usize).max(1);
         let mut poses = Vec::new();

@@ -260,6 +260,13 @@ impl Executor {
     }
 }
 
+/// A polyline's length, metres.
+pub fn polyline_length(path: &[[f64; 2]]) -> f64 {
+    path.windows(2)
+        .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+        .sum()
+}
+
 /// The point `length` metres along a polyline (its end when shorter): measured along the path,
 /// not in a straight line, so a goal round a corner is not looked for through the wall.
 pub fn along(path: &[[f64; 2]], length: f64) -> [f64; 2] {
@@ -287,11 +294,7 @@ pub fn visible_along(
     step: f64,
     sees: impl Fn([f64; 2]) -> bool,
 ) -> [f64; 2] {
-    let total: f64 = path
-        .windows(2)
-        .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
-        .sum();
-    let reach = length.min(total);
+    let reach = length.min(polyline_length(path));
     let tries = (reach / step).ceil().max(1.0) as usize;
     let mut goal = along(path, step.min(reach));
     for k in 2..=tries {
