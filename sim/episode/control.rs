@@ -5,10 +5,17 @@
 
 use super::Latency;
 use crate::robot::{DriveLimits, Pose2, UnicycleCommand};
-use autonomy::explore::schedule::Schedule;
+use autonomy::drive::wrap_angle;
+use autonomy::explore::schedule::{self, Schedule};
 use autonomy::explore::watch::{ProgressWatch, StuckWatch};
 use autonomy::explore::{Decision, PlanFailure, Recovery};
 use std::collections::{BTreeMap, VecDeque};
+
+/// How far, metres, the robot may have moved on from a late plan's start for the plan to be
+/// driven all the same: a few percent of the 0.35 m collision radius.
+const LATE_DISTANCE: f64 = 0.02;
+/// How far, radians, it may have turned: 2 cm sideways a metre ahead.
+const LATE_TURN: f64 = 0.02;
 
 /// Schedules, watches and the failure counts of an episode.
 #[derive(Debug)]
@@ -16,15 +23,31 @@ pub struct Controller {
     latency: Latency,
     limits: DriveLimits,
     current: Schedule,
-    pending: Option<Schedule>,
+    /// The next schedule and the pose it was planned from.
+    pending: Option<(Schedule, Pose2)>,
     progress: ProgressWatch,
     stuck: StuckWatch,
-    /// Wall seconds of the last three thinks (the compute delay a plan is planned ahead by).
-    recent_delays: VecDeque<f64>,
+    /// Wall seconds of the last three plans (with the mapping step's, which is known before
+    /// planning starts, the compute delay a plan is planned ahead by).
+    recent_plans: VecDeque<f64>,
     /// Planner failures by kind, for metrics.json.
     pub failures: BTreeMap<String, usize>,
     /// Recovery manoeuvres started.
     pub recovery_events: usize,
+    /// Decisions dropped because their think outlasted the lead they were planned for while
+    /// the robot was moving: they start from a pose the robot is not at.
+    pub late_plans: usize,
+    /// Per schedule started, metres between the robot and the pose it was planned from.
+    pub start_pose_errors: Vec<f64>,
+}
+
+/// Wall seconds a think took: the mapping step, then the plan.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ThinkTime {
+    /// The mapping step's.
+    pub mapping: f64,
+    /// The planner's.
+    pub planning: f64,
 }
 
 /// What the tick does after a think.
@@ -46,23 +69,35 @@ impl Controller {
             pending: None,
             progress: ProgressWatch::new(pose),
             stuck: StuckWatch::new(pose),
-            recent_delays: VecDeque::from([0.0]),
+            recent_plans: VecDeque::from([0.0]),
             failures: BTreeMap::new(),
             recovery_events: 0,
+            late_plans: 0,
+            start_pose_errors: Vec::new(),
         }
     }
 
-    /// Starts the waiting schedule once its start time has come.
-    pub fn advance(&mut self, time: f64) {
-        if self.pending.as_ref().is_some_and(|p| time >= p.start) {
-            if let Some(p) = self.pending.take() {
+    /// Starts the waiting schedule once its start time has come, noting how far the robot,
+    /// at `pose`, is from where the schedule was planned from.
+    pub fn advance(&mut self, time: f64, pose: &Pose2) {
+        if self.pending.as_ref().is_some_and(|(p, _)| time >= p.start) {
+            if let Some((p, from)) = self.pending.take() {
                 self.current = p;
+                let error = pose.distance([from.x, from.y]);
+                if error > 0.05 {
+                    tracing::debug!(
+                        "t = {time:.2} s: a schedule starts {error:.3} m from where it was \
+                         planned ({from:?}; the robot is at {pose:?}, first command {:?})",
+                        self.current.at(time)
+                    );
+                }
+                self.start_pose_errors.push(error);
             }
         }
     }
 
     fn active(&self) -> &Schedule {
-        self.pending.as_ref().unwrap_or(&self.current)
+        self.pending.as_ref().map_or(&self.current, |(p, _)| p)
     }
 
     /// The command for the robot at `time`.
@@ -88,48 +123,84 @@ impl Controller {
         self.progress.stalled(time, pose)
     }
 
-    /// Seconds ahead a plan must be made for: the slowest of the last three thinks with wall
-    /// latency, none without.
-    pub fn lead(&self) -> f64 {
+    /// Seconds ahead a plan must be made for, once the think's mapping step took `mapping`
+    /// wall seconds: that and the slowest of the last three plans with wall latency, none
+    /// without. (Estimating the whole think by the slowest of the last three left a quarter
+    /// of the plans late: mapping's time jitters by a third from step to step.)
+    pub fn lead(&self, mapping: f64) -> f64 {
         match self.latency {
-            Latency::Wall => self.recent_delays.iter().copied().fold(0.0, f64::max),
+            Latency::Wall => mapping + self.recent_plans.iter().copied().fold(0.0, f64::max),
             Latency::None => 0.0,
         }
     }
 
-    /// The pose the robot will have `lead` seconds after `time` on the active schedule.
+    /// The command the robot gets at `time`: the waiting schedule's from its start, the
+    /// current one's before.
+    fn command_at(&self, time: f64) -> UnicycleCommand {
+        match &self.pending {
+            Some((p, _)) if time >= p.start => p.at(time),
+            _ => self.current.at(time),
+        }
+    }
+
+    /// The pose the robot will have `lead` seconds after `time`: on the current schedule
+    /// until the waiting one starts, then on that.
     pub fn start_pose(&self, pose: Pose2, time: f64, lead: f64) -> Pose2 {
-        self.active().predict(pose, time, lead)
+        schedule::predict(|t| self.command_at(t), pose, time, lead)
     }
 
     /// Takes a think's outcome: `decision` (`None` when the watch overruled the planner)
-    /// made from `start_pose` at `time`, whose compute took `delay` wall seconds. Schedules
-    /// the plan or the recovery, and says whether the episode goes on.
+    /// made from `start_pose` at `time` for `lead` seconds ahead, whose compute took `think`.
+    /// Schedules the plan or the recovery, and says whether the episode goes on.
     pub fn take(
         &mut self,
         decision: Option<Decision>,
         time: f64,
         pose: Pose2,
         start_pose: Pose2,
-        delay: f64,
+        think: ThinkTime,
         lead: f64,
     ) -> Verdict {
-        let start = match self.latency {
+        let delay = think.mapping + think.planning;
+        let (start, late) = match self.latency {
             Latency::Wall => {
-                self.recent_delays.push_back(delay);
-                if self.recent_delays.len() > 3 {
-                    self.recent_delays.pop_front();
+                self.recent_plans.push_back(think.planning);
+                if self.recent_plans.len() > 3 {
+                    self.recent_plans.pop_front();
                 }
-                time + delay.max(lead)
+                // A think that outlasts its lead was planned from where the robot would be
+                // at `time + lead`; if the robot moves on after that, the plan's commands
+                // would be driven from elsewhere, unchecked, so it is dropped and the checked
+                // schedule goes on. Standing still, or nearly, the robot is where the plan
+                // starts, only later.
+                let late = delay > lead && {
+                    let then = self.start_pose(pose, time, delay);
+                    then.distance([start_pose.x, start_pose.y]) > LATE_DISTANCE
+                        || wrap_angle(then.theta - start_pose.theta).abs() > LATE_TURN
+                };
+                (time + delay.max(lead), late)
             }
-            Latency::None => time,
+            Latency::None => (time, false),
+        };
+        let decision = match decision {
+            Some(Decision::Done(reason)) => return Verdict::End(reason),
+            Some(_) | None if late => {
+                self.late_plans += 1;
+                tracing::debug!(
+                    "t = {time:.1} s: the think took {delay:.2} s, planned for {lead:.2} s \
+                     while moving; dropped"
+                );
+                self.progress.update(time, pose, false);
+                return self.watch_stuck(time, pose, false);
+            }
+            d => d,
         };
         // `None` inside: the watch's "no progress" rather than a planner failure.
         let failure: Option<Option<PlanFailure>> = match decision {
             Some(Decision::Done(reason)) => return Verdict::End(reason),
             Some(Decision::Go(plan)) => {
                 debug_assert!(plan.commands.iter().all(|u| self.limits.admits(*u)));
-                self.pending = Some(Schedule::from_plan(&plan, start));
+                self.pending = Some((Schedule::from_plan(&plan, start), start_pose));
                 None
             }
             Some(Decision::Fail(f)) => Some(Some(f)),
@@ -152,15 +223,17 @@ impl Controller {
                     .map_or("no progress for 10 s".to_owned(), PlanFailure::to_string)
             );
             *self.failures.entry(name.to_owned()).or_insert(0) += 1;
-            self.pending = Some(Schedule::recovery(
-                kind,
-                start,
-                start_pose.theta,
-                away,
-                &self.limits,
+            self.pending = Some((
+                Schedule::recovery(kind, start, start_pose.theta, away, &self.limits),
+                start_pose,
             ));
         }
         self.progress.update(time, pose, recovered);
+        self.watch_stuck(time, pose, recovered)
+    }
+
+    /// The stuck watch's verdict after a think.
+    fn watch_stuck(&mut self, time: f64, pose: Pose2, recovered: bool) -> Verdict {
         match self.stuck.update(time, pose, recovered) {
             Some(reason) => {
                 tracing::warn!("t = {time:.1} s: {reason}");
@@ -168,5 +241,210 @@ impl Controller {
             }
             None => Verdict::Continue,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use autonomy::explore::Plan;
+
+    /// A plan of `seconds` one-second commands `u` from `start`.
+    fn plan(u: UnicycleCommand, seconds: usize, start: Pose2) -> Decision {
+        let mut states = vec![start];
+        for _ in 0..seconds {
+            let last = states[states.len() - 1];
+            states.push(autonomy::drive::advance(&last, &u, 1.0));
+        }
+        Decision::Go(Plan {
+            commands: vec![u; seconds],
+            period: 1.0,
+            states,
+            target: None,
+            guidance: Vec::new(),
+            score: 0.0,
+            candidates: 1,
+            alternatives: Vec::new(),
+            commit: 0.0,
+        })
+    }
+
+    impl Controller {
+        /// `advance` with the robot where the schedules were planned from.
+        fn advance_to(&mut self, time: f64) {
+            let from = self.pending.as_ref().map_or(Pose2::default(), |(_, f)| *f);
+            self.advance(time, &from);
+        }
+    }
+
+    fn think(mapping: f64, planning: f64) -> ThinkTime {
+        ThinkTime { mapping, planning }
+    }
+
+    const FORWARD: UnicycleCommand = UnicycleCommand { v: 0.5, w: 0.0 };
+    const TURN: UnicycleCommand = UnicycleCommand { v: 0.0, w: 0.5 };
+
+    #[test]
+    fn a_late_plan_while_moving_is_dropped_and_the_checked_schedule_goes_on() {
+        let origin = Pose2::default();
+        let mut c = Controller::new(origin, Latency::Wall, DriveLimits::default());
+        // Standing still, a think of 0.2 s with no lead yet is not late: it starts at 0.2 s.
+        let v = c.take(
+            Some(plan(FORWARD, 5, origin)),
+            0.0,
+            origin,
+            origin,
+            think(0.1, 0.1),
+            0.0,
+        );
+        assert_eq!(v, Verdict::Continue);
+        assert_eq!(c.late_plans, 0);
+        c.advance_to(0.25);
+        assert_eq!(c.command(0.25), FORWARD);
+        // The lead is the mapping step's time and the slowest recent plan's.
+        let lead = c.lead(0.15);
+        assert_eq!(lead, 0.25);
+        // Moving, a think of 0.6 s planned for 0.25 s is dropped: forward goes on.
+        let at = c.start_pose(origin, 1.0, lead);
+        c.take(
+            Some(plan(TURN, 3, at)),
+            1.0,
+            origin,
+            at,
+            think(0.15, 0.45),
+            lead,
+        );
+        assert_eq!(c.late_plans, 1);
+        c.advance_to(1.7);
+        assert_eq!(c.command(1.7), FORWARD);
+        // The slow plan lengthens the lead; a think within it starts at time + lead.
+        let lead = c.lead(0.1);
+        assert_eq!(lead, 0.55);
+        c.take(
+            Some(plan(TURN, 3, at)),
+            2.0,
+            origin,
+            at,
+            think(0.1, 0.3),
+            lead,
+        );
+        assert_eq!(c.late_plans, 1);
+        c.advance_to(2.5);
+        assert_eq!(c.command(2.5), FORWARD);
+        c.advance_to(2.6);
+        assert_eq!(c.command(2.6), TURN);
+    }
+
+    #[test]
+    fn a_plan_late_by_less_than_a_couple_of_centimetres_is_driven() {
+        let origin = Pose2::default();
+        let mut c = Controller::new(origin, Latency::Wall, DriveLimits::default());
+        c.take(
+            Some(plan(FORWARD, 5, origin)),
+            0.0,
+            origin,
+            origin,
+            think(0.0, 0.0),
+            0.0,
+        );
+        c.advance_to(0.0);
+        // At 0.5 m/s, 0.03 s late is 1.5 cm on: driven, from 1.53 s.
+        let at = c.start_pose(origin, 1.0, 0.5);
+        c.take(
+            Some(plan(TURN, 3, at)),
+            1.0,
+            origin,
+            at,
+            think(0.53, 0.0),
+            0.5,
+        );
+        assert_eq!(c.late_plans, 0);
+        c.advance_to(1.54);
+        assert_eq!(c.command(1.54), TURN);
+        // Turning at 0.5 rad/s, 0.05 s late is 0.025 rad on: dropped.
+        let at = c.start_pose(origin, 2.0, 0.53);
+        c.take(
+            Some(plan(FORWARD, 3, at)),
+            2.0,
+            origin,
+            at,
+            think(0.58, 0.0),
+            0.53,
+        );
+        assert_eq!(c.late_plans, 1);
+    }
+
+    #[test]
+    fn a_late_plan_while_standing_still_starts_when_it_is_ready() {
+        let origin = Pose2::default();
+        let mut c = Controller::new(origin, Latency::Wall, DriveLimits::default());
+        c.take(
+            Some(plan(TURN, 1, origin)),
+            0.0,
+            origin,
+            origin,
+            think(0.1, 0.0),
+            0.0,
+        );
+        // The turn ends at 1.1 s; a think at 2.0 s planned for 0.1 s that takes 0.7 s finds
+        // the robot where it planned from.
+        c.advance_to(2.0);
+        c.take(
+            Some(plan(FORWARD, 2, origin)),
+            2.0,
+            origin,
+            origin,
+            think(0.7, 0.0),
+            0.1,
+        );
+        assert_eq!(c.late_plans, 0);
+        c.advance_to(2.65);
+        assert_eq!(c.command(2.65), UnicycleCommand::STOP);
+        // 0.1 m from where it was planned from: the start pose error says so.
+        let off = Pose2 {
+            x: 0.06,
+            y: 0.08,
+            theta: 0.0,
+        };
+        c.advance(2.75, &off);
+        assert_eq!(c.command(2.75), FORWARD);
+        assert_eq!(c.start_pose_errors.len(), 2);
+        assert!((c.start_pose_errors[1] - 0.1).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_start_pose_follows_the_current_schedule_until_the_waiting_one_starts() {
+        let origin = Pose2::default();
+        let mut c = Controller::new(origin, Latency::Wall, DriveLimits::default());
+        c.take(
+            Some(plan(FORWARD, 5, origin)),
+            0.0,
+            origin,
+            origin,
+            think(0.0, 0.0),
+            0.0,
+        );
+        c.advance_to(0.0);
+        // A turn waits for 1.5 s; from 1.0 s, 1.0 s ahead is 0.5 s forward, then 0.5 s of
+        // turning: (0.25 m, 0, 0.25 rad) from where the robot is at 1.0 s.
+        c.take(
+            Some(plan(TURN, 3, origin)),
+            1.0,
+            origin,
+            origin,
+            think(0.5, 0.0),
+            0.5,
+        );
+        assert_eq!(c.late_plans, 0);
+        let p = c.start_pose(origin, 1.0, 1.0);
+        let want = Pose2 {
+            x: 0.25,
+            y: 0.0,
+            theta: 0.25,
+        };
+        assert!(
+            (p.x - want.x).abs() < 1e-9 && p.y.abs() < 1e-9 && (p.theta - want.theta).abs() < 1e-9,
+            "{p:?}"
+        );
     }
 }

@@ -3,22 +3,23 @@
 
 use serde::Serialize;
 
-/// Median and 95th percentile of a stage's wall seconds.
+/// Median and 95th percentile of a figure measured many times (a stage's wall seconds, the
+/// error of a predicted start pose in metres).
 #[derive(Debug, Clone, Copy, Serialize, Default)]
-pub struct StageTime {
-    /// Median, seconds.
+pub struct Percentiles {
+    /// Median.
     pub median: f64,
-    /// 95th percentile, seconds.
+    /// 95th percentile.
     pub p95: f64,
 }
 
-/// The median and 95th percentile of a stage's wall times.
-pub fn stage(mut v: Vec<f64>) -> StageTime {
+/// The median and 95th percentile of `v` (zeros when empty).
+pub fn percentiles(mut v: Vec<f64>) -> Percentiles {
     if v.is_empty() {
-        return StageTime::default();
+        return Percentiles::default();
     }
     v.sort_by(f64::total_cmp);
-    StageTime {
+    Percentiles {
         median: v[v.len() / 2],
         p95: v[((v.len() as f64 * 0.95).ceil() as usize).clamp(1, v.len()) - 1],
     }
@@ -43,6 +44,12 @@ pub struct Metrics {
     pub collision_steps: usize,
     /// Recovery events (turn in place after a planner failure, back off after no progress).
     pub recovery_events: usize,
+    /// Plans dropped under `--latency wall` because their think outlasted the lead they were
+    /// made for while the robot moved on (always 0 with `--latency none`).
+    pub late_plans: usize,
+    /// How far, metres, the robot was from the pose its schedules were planned from when they
+    /// started: the error of the compute delay's prediction (zeros with `--latency none`).
+    pub start_pose_error: Percentiles,
     /// Planner failures by kind.
     pub plan_failures: std::collections::BTreeMap<String, usize>,
     /// Gaussians in the final map.
@@ -52,13 +59,13 @@ pub struct Metrics {
     /// Mapping steps.
     pub mapping_steps: usize,
     /// Wall time of a mapping step.
-    pub mapping: StageTime,
+    pub mapping: Percentiles,
     /// Wall time of a plan.
-    pub planning: StageTime,
+    pub planning: Percentiles,
     /// Wall time of a camera frame: render, read back, write the PNGs.
-    pub camera: StageTime,
+    pub camera: Percentiles,
     /// Wall time of a physics step (drive controller included).
-    pub physics: StageTime,
+    pub physics: Percentiles,
     /// The splat engine used.
     pub engine: String,
     /// The planner that drove the robot.

@@ -28,8 +28,8 @@ mod control;
 mod metrics;
 
 pub use crate::planners::{PlannerKind, PlannerOptions};
-use control::{Controller, Verdict};
-pub use metrics::{stage, Metrics, StageTime};
+use control::{Controller, ThinkTime, Verdict};
+pub use metrics::{percentiles, Metrics, Percentiles};
 
 /// The map's means as a coloured point cloud, which transforms.json names for nerfstudio.
 pub const POINT_CLOUD: &str = "points.ply";
@@ -265,7 +265,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
                 have_frame = true;
                 next_frame += frame_period;
             }
-            control.advance(time + 0.5 * timestep);
+            control.advance(time + 0.5 * timestep, &world.pose());
 
             // Think: map the newest frame, then plan from where the robot will be.
             if have_frame && due(time, next_think) {
@@ -290,7 +290,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
                 let pose = world.pose();
                 control.observe(&pose);
                 if !control.holding(time + 0.5 * timestep) {
-                    let lead = control.lead();
+                    let lead = control.lead((t1 - t0).as_secs_f64());
                     let start = control.start_pose(pose, time, lead);
                     let decision =
                         (!control.stalled(time, &pose)).then(|| planner.plan(mapper.map(), start));
@@ -302,9 +302,12 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
                             log.plan(&plan.alternatives, &plan.states)?;
                         }
                     }
-                    let delay = (t2 - t0).as_secs_f64();
+                    let think = ThinkTime {
+                        mapping: (t1 - t0).as_secs_f64(),
+                        planning: (t2 - t1).as_secs_f64(),
+                    };
                     if let Verdict::End(reason) =
-                        control.take(decision, time, pose, start, delay, lead)
+                        control.take(decision, time, pose, start, think, lead)
                     {
                         ended = reason;
                         break;
@@ -406,14 +409,16 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
         camera_path_length,
         collision_steps,
         recovery_events: control.recovery_events,
+        late_plans: control.late_plans,
+        start_pose_error: percentiles(control.start_pose_errors.clone()),
         plan_failures: control.failures.clone(),
         gaussians: mapper.map().len(),
         frames: writer.frame_count(),
         mapping_steps: mapper.steps(),
-        mapping: stage(mapping_times),
-        planning: stage(planning_times),
-        camera: stage(camera_times),
-        physics: stage(physics_times),
+        mapping: percentiles(mapping_times),
+        planning: percentiles(planning_times),
+        camera: percentiles(camera_times),
+        physics: percentiles(physics_times),
         engine: engine_name,
         planner: config.planner.name(),
         planner_settings: planner_settings.clone(),

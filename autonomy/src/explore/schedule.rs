@@ -120,14 +120,25 @@ impl Schedule {
     /// `time` for `lead` seconds: the pose a plan that starts after the compute delay must
     /// start from.
     pub fn predict(&self, pose: Pose2, time: f64, lead: f64) -> Pose2 {
-        let dt: f64 = 0.02;
-        let mut state = pose;
-        let mut t = 0.0;
-        while t < lead {
-            let step = dt.min(lead - t);
-            state = advance(&state, &self.at(time + t), step);
-            t += step;
-        }
-        state
+        predict(|t| self.at(t), pose, time, lead)
     }
+}
+
+/// Where the unicycle model puts the robot after following `command` (the command at each
+/// simulated time) from `pose` at `time` for `lead` seconds, in steps of 20 ms, each with the
+/// command at its middle (exact when the commands change on the steps' bounds, as schedules'
+/// whole periods do; a start summed step by step could land just short of a bound).
+pub fn predict(
+    command: impl Fn(f64) -> UnicycleCommand,
+    pose: Pose2,
+    time: f64,
+    lead: f64,
+) -> Pose2 {
+    let dt: f64 = 0.02;
+    let steps = (lead / dt).ceil().max(0.0) as usize;
+    (0..steps).fold(pose, |state, k| {
+        let from = k as f64 * dt;
+        let step = dt.min(lead - from).max(0.0);
+        advance(&state, &command(time + from + 0.5 * step), step)
+    })
 }
