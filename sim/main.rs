@@ -342,6 +342,15 @@ struct EpisodeOptions {
           default_missing_value = "true", value_name = "BOOL")]
     #[serde(default)]
     rtguide_frontier_regions: bool,
+    /// RT-GuIDE with frontier regions: while a frontier viewpoint is offered, regions'
+    /// viewpoints yield to it, so the robot does not linger among nearby regions while a
+    /// room is left unseen farther off (a flagged extension, off by default: they compete
+    /// by Omega / e^d).
+    // Sweeps begun before the flag existed ran without it: their settings lack it.
+    #[arg(long, action = clap::ArgAction::Set, num_args = 0..=1, default_value_t = false,
+          default_missing_value = "true", value_name = "BOOL")]
+    #[serde(default)]
+    rtguide_frontiers_first: bool,
     /// agslam: weight of the localisation term log det(J^T J) in the goal score (the
     /// authors' code's 0.5; 0 is the paper's Table 3 ablation).
     #[arg(long, default_value_t = 0.5)]
@@ -798,6 +807,7 @@ fn run_run(args: RunArgs) -> Result<Option<u8>> {
             rtguide_commit: args.options.rtguide_commit,
             rtguide_free_space_edges: args.options.rtguide_free_space_edges,
             rtguide_frontier_regions: args.options.rtguide_frontier_regions,
+            rtguide_frontiers_first: args.options.rtguide_frontiers_first,
             pose_weight: args.options.pose_weight,
             agslam_candidates: args.options.agslam_candidates,
             agslam_train: match args.options.agslam_train.as_str() {
@@ -1432,12 +1442,12 @@ mod tests {
         let defaults = run_options(&[]);
         // The paper's planner is a switch turned off that is on by default.
         assert!(defaults.rtguide_frontier_regions && !defaults.rtguide_free_space_edges);
-        for (frontier_regions, free_space_edges) in
-            [(false, false), (false, true), (true, false), (true, true)]
-        {
+        assert!(!defaults.rtguide_frontiers_first);
+        for switches in 0..8 {
             let options = EpisodeOptions {
-                rtguide_frontier_regions: frontier_regions,
-                rtguide_free_space_edges: free_space_edges,
+                rtguide_frontier_regions: switches & 1 != 0,
+                rtguide_free_space_edges: switches & 2 != 0,
+                rtguide_frontiers_first: switches & 4 != 0,
                 ..defaults.clone()
             };
             let map = match serde_json::to_value(&options).expect("serialises") {
@@ -1447,8 +1457,8 @@ mod tests {
             let words = splatloop::sweep::spec::option_words(&map);
             assert_eq!(run_options(&words), options, "{words:?}");
         }
-        // A bare switch is on; sweeps from before the frontier switch (no key) read as the
-        // paper's planner.
+        // A bare switch is on; sweeps from before the frontier switches (no keys)
+        // read as the paper's planner.
         let bare = run_options(&["--rtguide-free-space-edges".into()]);
         assert!(bare.rtguide_free_space_edges);
         let mut old = match serde_json::to_value(&defaults).expect("serialises") {
@@ -1456,8 +1466,9 @@ mod tests {
             other => panic!("not an object: {other}"),
         };
         old.remove("rtguide_frontier_regions");
+        old.remove("rtguide_frontiers_first");
         let read: EpisodeOptions =
             serde_json::from_value(serde_json::Value::Object(old)).expect("reads");
-        assert!(!read.rtguide_frontier_regions);
+        assert!(!read.rtguide_frontier_regions && !read.rtguide_frontiers_first);
     }
 }

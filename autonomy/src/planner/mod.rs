@@ -71,6 +71,13 @@ pub struct PlannerConfig {
     /// draws nobody; a flagged extension, `--rtguide-frontier-regions`). With it, candidates
     /// also keep clear of cells the grid has not seen.
     pub frontier_regions: bool,
+    /// With frontier regions: while a frontier viewpoint is offered, regions' viewpoints
+    /// yield to it. A region's Omega is a displacement per mapping step, which Adam keeps to
+    /// about its step size (1.7 mm at 10 iterations), some 300 times below a frontier's;
+    /// but e^d weighs 6 m more of path as much, and the robot lingered among nearby regions
+    /// with a room unseen 15 m off (office_02: 600 s in one room). Off: they compete by
+    /// Omega / e^d (a flagged extension, `--rtguide-frontiers-first`).
+    pub frontiers_first: bool,
 }
 
 /// The robot's footprint radius marked free in the evidence grid, metres.
@@ -121,6 +128,7 @@ impl Default for PlannerConfig {
             commit_seconds: 0.0,
             free_space_edges: false,
             frontier_regions: false,
+            frontiers_first: false,
         }
     }
 }
@@ -272,6 +280,8 @@ impl RtGuidePlanner {
         });
         let k = &cfg.mount.intrinsics;
         let half_fov = (k.cx / k.fx).atan().min((k.cy / k.fy).atan());
+        // The regions' viewpoints (frontiers may come first).
+        let mut region_viewpoints = Vec::new();
         for region in self.tally.regions() {
             // The shortest distance at which the region's bounding sphere fits the view.
             let reach = cfg.region_size * 3f64.sqrt() / 2.0 / half_fov.sin();
@@ -302,13 +312,18 @@ impl RtGuidePlanner {
                     } else {
                         region.omega
                     };
-                    self.graph.add_viewpoint(p, omega, heading);
+                    region_viewpoints.push(self.graph.add_viewpoint(p, omega, heading));
                 }
             }
         }
         if let Some(view) = view.as_ref().filter(|_| cfg.frontier_regions) {
             let unseen = UNSEEN_UNCERTAINTY * cfg.region_size;
             self.add_frontier_viewpoints(view, robot, unseen);
+        }
+        if cfg.frontiers_first && !self.frontier_offers.is_empty() {
+            for node in &region_viewpoints {
+                self.graph.detach(*node);
+            }
         }
         let previous = self.target.filter(|t| {
             (t[0] - robot.x).hypot(t[1] - robot.y) >= cfg.min_viewpoint_distance
@@ -357,6 +372,16 @@ impl RtGuidePlanner {
         let target = self.graph.nodes[best].position;
         let same =
             previous.is_some_and(|p| (p[0] - target[0]).hypot(p[1] - target[1]) < KEEP_RADIUS);
+        if let graph::NodeKind::Viewpoint { omega, .. } = self.graph.nodes[best].kind {
+            tracing::debug!(
+                "target ({:.2}, {:.2}) omega {omega:.4}, previous {:.2?} (kept: {same}, {} plans), {} visited",
+                target[0],
+                target[1],
+                self.target,
+                self.target_plans,
+                self.visited.len()
+            );
+        }
         self.target_plans = if same { self.target_plans + 1 } else { 1 };
         self.target = Some(target);
         self.target_frontier = self
@@ -603,6 +628,7 @@ impl crate::explore::Planner for RtGuidePlanner {
             "commit_seconds": c.commit_seconds,
             "free_space_edges": c.free_space_edges,
             "frontier_regions": c.frontier_regions,
+            "frontiers_first": c.frontiers_first,
         })
     }
 
@@ -664,6 +690,75 @@ mod tests {
             cost: 0.0,
             distance_to_goal: 0.0,
         }
+    }
+
+    #[test]
+    fn with_frontiers_first_a_far_frontier_outranks_a_near_region() {
+        use crate::gaussians::Gaussians;
+        use crate::math::Point3;
+        // Seen floor: a 7 x 4 m room round the robot and a 1.5 m wide corridor north from it
+        // to y = 14 m, where it opens onto unseen space; walls two cells thick elsewhere.
+        let cell = 0.05;
+        let inside = |x: f64, y: f64| {
+            ((-2.0..5.0).contains(&x) && (-2.0..2.0).contains(&y))
+                || ((-0.75..0.75).contains(&x) && (-2.0..14.0).contains(&y))
+        };
+        let mut grid = EvidenceGrid::new(EvidenceConfig::default());
+        let (lo, hi) = ([-60, -60], [120, 300]);
+        for j in lo[1]..hi[1] {
+            for i in lo[0]..hi[0] {
+                let (x, y) = ((i as f64 + 0.5) * cell, (j as f64 + 0.5) * cell);
+                let near_inside = (-2..=2)
+                    .any(|a| (-2..=2).any(|b| inside(x + a as f64 * cell, y + b as f64 * cell)));
+                if inside(x, y) {
+                    // Free: a ray down to the floor ends in the cell without a hit.
+                    grid.integrate_ray(Point3::new(x, y, 0.5), Point3::new(x + 1e-3, y, 0.0));
+                } else if near_inside && y < 14.0 {
+                    // A wall: a ray that ends in the cell at wall height.
+                    grid.integrate_ray(Point3::new(x + 1e-3, y, 0.5), Point3::new(x, y, 0.5));
+                }
+            }
+        }
+        // A block of Gaussians 3 m east that still moves (Omega 1e-3), and nothing else.
+        let mut g = Gaussians::default();
+        for k in 0..400 {
+            let (i, j) = ((k % 20) as f32, (k / 20) as f32);
+            g.push([3.0 + 0.01 * i, 0.01 * j, 0.5], 0.02, 0.9, [0.5; 3]);
+        }
+        let map = GaussianMap::new(g, vec![1e-3; 400]);
+        let robot = Pose2 {
+            x: 0.0,
+            y: 0.0,
+            theta: 0.0,
+        };
+        let target = |frontiers_first: bool| {
+            let mut planner = RtGuidePlanner::new(
+                PlannerConfig {
+                    frontier_regions: true,
+                    frontiers_first,
+                    ..PlannerConfig::default()
+                },
+                CollisionEngine::Grid,
+            );
+            planner.evidence = Some(grid.clone());
+            let plan = planner.plan(&map, robot).expect("a plan");
+            let offers = planner.frontier_offers.clone();
+            (plan.guidance.last().copied().expect("guidance"), offers)
+        };
+        // By Omega / e^d the block's viewpoints win (1e-3 e^-1.6 against 0.75 e^-13).
+        let (paper, offers) = target(false);
+        assert_eq!(
+            offers.len(),
+            1,
+            "one frontier, the corridor's end: {offers:?}"
+        );
+        assert!(paper[1] < 5.0, "{paper:?}");
+        // First, the frontier: its viewpoint within reach of the corridor's end.
+        let (first, _) = target(true);
+        assert!(
+            (first[1] - 14.0).abs() <= FRONTIER_GOAL_RADIUS + 0.1 && first[0].abs() < 0.75,
+            "{first:?}"
+        );
     }
 
     #[test]
