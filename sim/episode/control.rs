@@ -256,17 +256,7 @@ mod tests {
             let last = states[states.len() - 1];
             states.push(autonomy::drive::advance(&last, &u, 1.0));
         }
-        Decision::Go(Plan {
-            commands: vec![u; seconds],
-            period: 1.0,
-            states,
-            target: None,
-            guidance: Vec::new(),
-            score: 0.0,
-            candidates: 1,
-            alternatives: Vec::new(),
-            commit: 0.0,
-        })
+        Decision::Go(Plan::unsearched(vec![u; seconds], 1.0, states))
     }
 
     impl Controller {

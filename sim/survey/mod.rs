@@ -211,17 +211,7 @@ impl Planner for SurveyPlanner {
             commands.push(u);
             states.push(advance(&at, &u, self.tick));
         }
-        Decision::Go(Plan {
-            commands,
-            period: self.tick,
-            states,
-            target: None,
-            guidance: Vec::new(),
-            score: 0.0,
-            candidates: 1,
-            alternatives: Vec::new(),
-            commit: 0.0,
-        })
+        Decision::Go(Plan::unsearched(commands, self.tick, states))
     }
 }
 

@@ -54,6 +54,25 @@ pub struct Plan {
     pub commit: f64,
 }
 
+impl Plan {
+    /// A plan no search made (the survey's driver, a test's schedule): `states` are the start
+    /// and the state after each command; no target, guidance or alternatives, replaced at the
+    /// next think.
+    pub fn unsearched(commands: Vec<UnicycleCommand>, period: f64, states: Vec<Pose2>) -> Self {
+        Plan {
+            commands,
+            period,
+            states,
+            target: None,
+            guidance: Vec::new(),
+            score: 0.0,
+            candidates: 1,
+            alternatives: Vec::new(),
+            commit: 0.0,
+        }
+    }
+}
+
 /// What a planner answers when asked for a plan.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Decision {
