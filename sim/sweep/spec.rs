@@ -31,7 +31,8 @@ pub enum Budget {
 /// Everything that decides a sweep's results; a rerun must match it to resume.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SweepSpec {
-    /// MJCF worlds, absolute paths (a rerun from another folder is the same sweep).
+    /// MJCF worlds, absolute paths (a rerun from another folder is the same sweep); sweep.json
+    /// holds them relative to the sweep's folder, so a committed sweep resumes in any clone.
     pub worlds: Vec<PathBuf>,
     /// Planner names (`splatloop run --planner`).
     pub planners: Vec<String>,
@@ -103,7 +104,11 @@ impl Sweep {
                 return Err(SimError::SweepChanged { path: file, detail });
             }
         } else {
-            crate::dataset::write_json(&file, &spec)?;
+            let stored = SweepSpec {
+                worlds: spec.worlds.iter().map(|w| relative_to(&out, w)).collect(),
+                ..spec.clone()
+            };
+            crate::dataset::write_json(&file, &stored)?;
         }
         Sweep::new(out, spec)
     }
@@ -432,12 +437,41 @@ fn kind_of(world: &Path) -> String {
         .unwrap_or_else(|| "custom".into())
 }
 
+/// sweep.json, with its worlds resolved against the sweep's folder (sweeps written before
+/// they were stored relative hold absolute paths, which stay as they are).
 fn read_spec(file: &Path) -> Result<SweepSpec> {
     let bytes = std::fs::read(file).map_err(|e| SimError::io("cannot read", file, e))?;
-    serde_json::from_slice(&bytes).map_err(|source| SimError::BadJson {
-        path: file.to_path_buf(),
-        source,
-    })
+    let mut spec: SweepSpec =
+        serde_json::from_slice(&bytes).map_err(|source| SimError::BadJson {
+            path: file.to_path_buf(),
+            source,
+        })?;
+    let folder = file.parent().unwrap_or(Path::new("."));
+    for world in &mut spec.worlds {
+        if world.is_relative() {
+            let joined = folder.join(&*world);
+            *world = std::fs::canonicalize(&joined).unwrap_or(joined);
+        }
+    }
+    Ok(spec)
+}
+
+/// `path` relative to the folder `base` (both absolute, without `.` or `..`): up from `base`
+/// to their common ancestor, then down.
+fn relative_to(base: &Path, path: &Path) -> PathBuf {
+    let (b, p): (Vec<_>, Vec<_>) = (base.components().collect(), path.components().collect());
+    let common = b.iter().zip(&p).take_while(|(x, y)| x == y).count();
+    if common == 0 {
+        return path.to_path_buf();
+    }
+    let mut out = PathBuf::new();
+    for _ in common..b.len() {
+        out.push("..");
+    }
+    for c in &p[common..] {
+        out.push(c.as_os_str());
+    }
+    out
 }
 
 /// The first setting in which two sweeps differ, as a person would say it.
@@ -471,7 +505,10 @@ fn first_difference(earlier: &SweepSpec, now: &SweepSpec) -> Option<String> {
     let keys = earlier.run_options.keys().chain(now.run_options.keys());
     for key in keys {
         let (a, b) = (earlier.run_options.get(key), now.run_options.get(key));
-        if a != b {
+        // A switch added since the sweep began is missing from it; off, it is what ran then
+        // (a new switch's missing key reads as off).
+        let added_off = a.is_none() && b == Some(&Value::Bool(false));
+        if a != b && !added_off {
             return Some(format!(
                 "--{} was {} and is now {}",
                 key.replace('_', "-"),
@@ -485,4 +522,98 @@ fn first_difference(earlier: &SweepSpec, now: &SweepSpec) -> Option<String> {
 
 fn absolute(path: &Path) -> Result<PathBuf> {
     std::fs::canonicalize(path).map_err(|e| SimError::io("cannot resolve", path, e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A clone at `root`: a world file and a sweep folder beside it.
+    fn clone_at(root: &Path) -> (PathBuf, PathBuf) {
+        let worlds = root.join("worlds");
+        std::fs::create_dir_all(&worlds).expect("worlds folder");
+        let world = worlds.join("room.xml");
+        std::fs::write(&world, "<mujoco/>").expect("world file");
+        (
+            std::fs::canonicalize(world).expect("world"),
+            root.join("runs/sweep"),
+        )
+    }
+
+    fn spec(world: &Path) -> SweepSpec {
+        SweepSpec {
+            worlds: vec![world.to_path_buf()],
+            planners: vec!["survey".into()],
+            seeds: vec![3],
+            budget: Budget::Seconds(10.0),
+            run_options: Map::new(),
+        }
+    }
+
+    #[test]
+    fn a_sweep_stores_its_worlds_relative_and_resumes_in_another_clone() {
+        let tmp = tempfile::tempdir().expect("temporary folder");
+        let (world, out) = clone_at(&tmp.path().join("a"));
+        Sweep::open(&out, spec(&world)).expect("a new sweep");
+        let stored: Value =
+            serde_json::from_slice(&std::fs::read(out.join(SWEEP_FILE)).expect("sweep.json"))
+                .expect("json");
+        assert_eq!(stored["worlds"][0], "../../worlds/room.xml");
+        assert_eq!(Sweep::load(&out).expect("loads").spec.worlds, vec![world]);
+        // The same tree elsewhere (another clone with the sweep committed) resumes it ...
+        let (moved, moved_out) = clone_at(&tmp.path().join("b"));
+        std::fs::create_dir_all(&moved_out).expect("sweep folder");
+        std::fs::copy(out.join(SWEEP_FILE), moved_out.join(SWEEP_FILE)).expect("copy");
+        Sweep::open(&moved_out, spec(&moved)).expect("the same sweep");
+        // ... and still refuses another world.
+        let (_, elsewhere) = clone_at(&tmp.path().join("c"));
+        let other = tmp.path().join("c/worlds/room.xml");
+        std::fs::remove_dir_all(&elsewhere).ok();
+        assert!(matches!(
+            Sweep::open(
+                &moved_out,
+                spec(&std::fs::canonicalize(other).expect("world"))
+            ),
+            Err(SimError::SweepChanged { .. })
+        ));
+    }
+
+    #[test]
+    fn a_switch_added_since_a_sweep_began_resumes_it_when_off() {
+        let world = Path::new("/r/worlds/room.xml");
+        let earlier = spec(world);
+        let mut now = spec(world);
+        now.run_options
+            .insert("rtguide_frontiers_first".into(), Value::Bool(false));
+        assert_eq!(first_difference(&earlier, &now), None);
+        now.run_options
+            .insert("rtguide_frontiers_first".into(), Value::Bool(true));
+        assert!(first_difference(&earlier, &now).is_some());
+        // An option the sweep had and the rerun lacks is still a difference.
+        assert!(first_difference(&now, &earlier).is_some());
+    }
+
+    #[test]
+    fn relative_paths_go_up_to_the_common_folder_then_down() {
+        let cases = [
+            ("/r/a/out", "/r/worlds/w.xml", "../../worlds/w.xml"),
+            ("/r/out", "/r/out/w.xml", "w.xml"),
+            ("/r", "/s/w.xml", "../s/w.xml"),
+        ];
+        for (base, path, want) in cases {
+            let rel = relative_to(Path::new(base), Path::new(path));
+            assert_eq!(rel, PathBuf::from(want), "{base} -> {path}");
+            // Joined back onto the base and normalised, it is the path again.
+            let mut back = PathBuf::from(base);
+            for c in rel.components() {
+                match c {
+                    std::path::Component::ParentDir => {
+                        back.pop();
+                    }
+                    other => back.push(other),
+                }
+            }
+            assert_eq!(back, PathBuf::from(path));
+        }
+    }
 }
