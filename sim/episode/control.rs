@@ -16,6 +16,8 @@ use std::collections::{BTreeMap, VecDeque};
 const LATE_DISTANCE: f64 = 0.02;
 /// How far, radians, it may have turned: 2 cm sideways a metre ahead.
 const LATE_TURN: f64 = 0.02;
+/// A schedule that starts this far, metres, from where it was planned is logged (debug).
+const LOGGED_START_ERROR: f64 = 0.05;
 
 /// Schedules, watches and the failure counts of an episode.
 #[derive(Debug)]
@@ -84,7 +86,7 @@ impl Controller {
             if let Some((p, from)) = self.pending.take() {
                 self.current = p;
                 let error = pose.distance([from.x, from.y]);
-                if error > 0.05 {
+                if error > LOGGED_START_ERROR {
                     tracing::debug!(
                         "t = {time:.2} s: a schedule starts {error:.3} m from where it was \
                          planned ({from:?}; the robot is at {pose:?}, first command {:?})",
