@@ -79,12 +79,14 @@ impl Controller {
         }
     }
 
-    /// Starts the waiting schedule once its start time has come, noting how far the robot,
-    /// at `pose`, is from where the schedule was planned from.
-    pub fn advance(&mut self, time: f64, pose: &Pose2) {
+    /// Starts the waiting schedule once its start time has come, noting how far the robot
+    /// (at `pose()`, asked only then: this runs every physics step) is from where the schedule
+    /// was planned from.
+    pub fn advance(&mut self, time: f64, pose: impl FnOnce() -> Pose2) {
         if self.pending.as_ref().is_some_and(|(p, _)| time >= p.start) {
             if let Some((p, from)) = self.pending.take() {
                 self.current = p;
+                let pose = pose();
                 let error = pose.distance([from.x, from.y]);
                 if error > LOGGED_START_ERROR {
                     tracing::debug!(
@@ -184,19 +186,15 @@ impl Controller {
             }
             Latency::None => (time, false),
         };
-        let decision = match decision {
-            Some(Decision::Done(reason)) => return Verdict::End(reason),
-            Some(_) | None if late => {
-                self.late_plans += 1;
-                tracing::debug!(
-                    "t = {time:.1} s: the think took {delay:.2} s, planned for {lead:.2} s \
-                     while moving; dropped"
-                );
-                self.progress.update(time, pose, false);
-                return self.watch_stuck(time, pose, false);
-            }
-            d => d,
-        };
+        if late && !matches!(decision, Some(Decision::Done(_))) {
+            self.late_plans += 1;
+            tracing::debug!(
+                "t = {time:.1} s: the think took {delay:.2} s, planned for {lead:.2} s \
+                 while moving; dropped"
+            );
+            self.progress.update(time, pose, false);
+            return self.watch_stuck(time, pose, false);
+        }
         // `None` inside: the watch's "no progress" rather than a planner failure.
         let failure: Option<Option<PlanFailure>> = match decision {
             Some(Decision::Done(reason)) => return Verdict::End(reason),
@@ -265,7 +263,7 @@ mod tests {
         /// `advance` with the robot where the schedules were planned from.
         fn advance_to(&mut self, time: f64) {
             let from = self.pending.as_ref().map_or(Pose2::default(), |(_, f)| *f);
-            self.advance(time, &from);
+            self.advance(time, || from);
         }
     }
 
@@ -398,7 +396,7 @@ mod tests {
             y: 0.08,
             theta: 0.0,
         };
-        c.advance(2.75, &off);
+        c.advance(2.75, || off);
         assert_eq!(c.command(2.75), FORWARD);
         assert_eq!(c.start_pose_errors.len(), 2);
         assert!((c.start_pose_errors[1] - 0.1).abs() < 1e-12);

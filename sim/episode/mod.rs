@@ -265,7 +265,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
                 have_frame = true;
                 next_frame += frame_period;
             }
-            control.advance(time + 0.5 * timestep, &world.pose());
+            control.advance(time + 0.5 * timestep, || world.pose());
 
             // Think: map the newest frame, then plan from where the robot will be.
             if have_frame && due(time, next_think) {
