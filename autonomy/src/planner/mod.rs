@@ -10,6 +10,7 @@ pub mod graph;
 pub mod information;
 pub mod lattice;
 pub mod mirror;
+pub mod progress;
 pub mod search;
 pub mod tally;
 pub mod unicycle;
@@ -18,6 +19,7 @@ use crate::map::{ClassifyOptions, GaussianMap};
 use collision::CollisionModel;
 use graph::{local_goal, TopologicalGraph, KEEP_RADIUS};
 use information::{CameraMount, ViewCounter};
+use progress::TargetProgress;
 use search::SearchConfig;
 use std::time::Instant;
 use tally::Tally;
@@ -42,7 +44,8 @@ pub struct PlannerConfig {
     pub min_viewpoint_distance: f64,
     /// The last target is kept while it scores at least this share of the best viewpoint.
     pub keep_target_fraction: f64,
-    /// ... and for at most this many plans in a row, so an unreachable one is given up.
+    /// ... and for at most this many plans in a row without its route coming shorter
+    /// (`progress::PROGRESS_STEP`), so one the robot cannot close on is given up.
     pub keep_target_plans: usize,
     /// Utility factor of viewpoints within `min_viewpoint_distance` of a reached target.
     pub visited_utility_factor: f64,
@@ -172,7 +175,8 @@ pub struct RtGuidePlanner {
     /// The viewpoint the last plan headed for: kept while it scores at least half the best,
     /// so two similar viewpoints do not make the robot dither between them.
     target: Option<[f64; 2]>,
-    target_plans: usize,
+    /// Whether the robot is closing on the target.
+    target_progress: TargetProgress,
     /// Targets the robot has reached.
     visited: Vec<[f64; 2]>,
     /// The evidence grid of free-space edges and frontier viewpoints (when either is on).
@@ -215,7 +219,7 @@ impl RtGuidePlanner {
             tally,
             counter,
             target: None,
-            target_plans: 0,
+            target_progress: TargetProgress::default(),
             visited: Vec::new(),
             evidence,
             frontier_offers: Vec::new(),
@@ -266,8 +270,9 @@ impl RtGuidePlanner {
                 self.cleared_frontiers.extend(self.target_frontier.take());
             }
         }
-        // A frontier target kept for as long as any target may be, and not reached, is given up.
-        if self.target_plans >= self.config.keep_target_plans {
+        // A frontier target kept for as long as any target may be without the robot closing
+        // on it, and not reached, is given up.
+        if self.target_progress.stalled_plans() >= self.config.keep_target_plans {
             self.give_up_target_frontier();
         }
         // Viewpoints first: clearing them renumbers the nodes after them.
@@ -327,7 +332,7 @@ impl RtGuidePlanner {
         }
         let previous = self.target.filter(|t| {
             (t[0] - robot.x).hypot(t[1] - robot.y) >= cfg.min_viewpoint_distance
-                && self.target_plans < cfg.keep_target_plans
+                && self.target_progress.stalled_plans() < cfg.keep_target_plans
         });
         // The best viewpoint whose edge into the graph is clear of the map: a viewpoint is
         // joined to its nearest odometry node by a straight line, which can cross a wall (the
@@ -374,15 +379,14 @@ impl RtGuidePlanner {
             previous.is_some_and(|p| (p[0] - target[0]).hypot(p[1] - target[1]) < KEEP_RADIUS);
         if let graph::NodeKind::Viewpoint { omega, .. } = self.graph.nodes[best].kind {
             tracing::debug!(
-                "target ({:.2}, {:.2}) omega {omega:.4}, previous {:.2?} (kept: {same}, {} plans), {} visited",
+                "target ({:.2}, {:.2}) omega {omega:.4}, previous {:.2?} (kept: {same}, {} plans stalled), {} visited",
                 target[0],
                 target[1],
                 self.target,
-                self.target_plans,
+                self.target_progress.stalled_plans(),
                 self.visited.len()
             );
         }
-        self.target_plans = if same { self.target_plans + 1 } else { 1 };
         self.target = Some(target);
         self.target_frontier = self
             .frontier_offers
@@ -412,6 +416,12 @@ impl RtGuidePlanner {
                 (guidance, goal)
             }
         };
+        let remaining = crate::explore::executor::polyline_length(&guidance);
+        if same {
+            self.target_progress.observe(remaining);
+        } else {
+            self.target_progress.start(remaining);
+        }
 
         let t1 = Instant::now();
         let mut trajectories = self.executor.candidates(robot, goal);
