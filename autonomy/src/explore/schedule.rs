@@ -16,6 +16,9 @@ pub struct Schedule {
     /// Seconds from `start` it runs before the planner is asked again (infinity for a
     /// recovery manoeuvre or a look around, which replanning every period would cut short).
     pub commit: f64,
+    /// Simulated time from which the robot stands still whatever the commands say (infinity
+    /// unless the host's safety check halted it: a newer map blocks what is left).
+    pub halt: f64,
 }
 
 /// Steps of a recovery manoeuvre, seconds.
@@ -35,6 +38,7 @@ impl Schedule {
             period: 1.0,
             commands: Vec::new(),
             commit: 0.0,
+            halt: f64::INFINITY,
         }
     }
 
@@ -45,6 +49,7 @@ impl Schedule {
             period: plan.period,
             commands: plan.commands.clone(),
             commit: plan.commit,
+            halt: f64::INFINITY,
         }
     }
 
@@ -91,12 +96,13 @@ impl Schedule {
             period: RECOVERY_TICK,
             commands,
             commit: f64::INFINITY,
+            halt: f64::INFINITY,
         }
     }
 
-    /// When the last command ends.
+    /// When the last command ends, or the halt if that comes first.
     pub fn end(&self) -> f64 {
-        self.start + self.period * self.commands.len() as f64
+        (self.start + self.period * self.commands.len() as f64).min(self.halt.max(self.start))
     }
 
     /// Whether the schedule is still within its commitment at `time`.
@@ -104,10 +110,11 @@ impl Schedule {
         time < self.end().min(self.start + self.commit)
     }
 
-    /// The command at simulated time `t`: standing still before the start and after the end.
+    /// The command at simulated time `t`: standing still before the start and after the end
+    /// (or the halt).
     pub fn at(&self, t: f64) -> UnicycleCommand {
         let k = ((t - self.start) / self.period).floor();
-        if k < 0.0 {
+        if k < 0.0 || t >= self.halt {
             return UnicycleCommand::STOP;
         }
         self.commands
