@@ -344,10 +344,10 @@ struct EpisodeOptions {
     rtguide_frontier_regions: bool,
     /// RT-GuIDE with frontier regions: while a frontier viewpoint is offered, regions'
     /// viewpoints yield to it, so the robot does not linger among nearby regions while a
-    /// room is left unseen farther off (a flagged extension, off by default: they compete
-    /// by Omega / e^d).
+    /// room is left unseen farther off (a flagged extension, on by default; `false`: they
+    /// compete by Omega / e^d).
     // Sweeps begun before the flag existed ran without it: their settings lack it.
-    #[arg(long, action = clap::ArgAction::Set, num_args = 0..=1, default_value_t = false,
+    #[arg(long, action = clap::ArgAction::Set, num_args = 0..=1, default_value_t = true,
           default_missing_value = "true", value_name = "BOOL")]
     #[serde(default)]
     rtguide_frontiers_first: bool,
@@ -1442,7 +1442,7 @@ mod tests {
         let defaults = run_options(&[]);
         // The paper's planner is a switch turned off that is on by default.
         assert!(defaults.rtguide_frontier_regions && !defaults.rtguide_free_space_edges);
-        assert!(!defaults.rtguide_frontiers_first);
+        assert!(defaults.rtguide_frontiers_first);
         for switches in 0..8 {
             let options = EpisodeOptions {
                 rtguide_frontier_regions: switches & 1 != 0,

@@ -83,8 +83,8 @@ pub struct PlannerOptions {
     /// RT-GuIDE: a viewpoint beside each frontier of an evidence grid, so unseen space has
     /// utility (on by default; off: the paper's regions of Gaussians only).
     pub rtguide_frontier_regions: bool,
-    /// RT-GuIDE: while a frontier viewpoint is offered, regions' viewpoints yield to it (off
-    /// by default: regions compete with the frontiers by Omega / e^d).
+    /// RT-GuIDE: while a frontier viewpoint is offered, regions' viewpoints yield to it (on
+    /// by default; off: regions compete with the frontiers by Omega / e^d).
     pub rtguide_frontiers_first: bool,
     /// agslam: weight of the localisation term log det(J^T J) (0.5, the authors' code; 0 is
     /// their Table 3 ablation).
@@ -102,7 +102,7 @@ impl Default for PlannerOptions {
             rtguide_commit: 0.0,
             rtguide_free_space_edges: false,
             rtguide_frontier_regions: true,
-            rtguide_frontiers_first: false,
+            rtguide_frontiers_first: true,
             pose_weight: AgslamConfig::default().pose_weight,
             agslam_candidates: AgslamConfig::default().candidates,
             agslam_train: TrainMode::Incremental,

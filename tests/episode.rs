@@ -28,7 +28,8 @@ fn smoke_episode_explores_without_collisions_and_repeats_exactly() {
     assert_eq!(first.collision_steps, 0);
     assert_eq!(first.ended, "budget");
     assert_eq!(first.frames, 300);
-    // Measured on the CI machine (2026-12-02, 60 s, seed 3, the default frontier regions):
+    // Measured on the CI machine (2026-12-02, 60 s, seed 3, the default frontier regions;
+    // the same with frontiers first, the default since):
     // 14.7 m driven, 112073 Gaussians, PSNR 21.4 dB, coverage 91.0% on 20 hidden views (the
     // paper's planner, 2026-11-25: 14.4 m, 20.7 dB, 90.5%). The floors leave room for other
     // machines' float rounding, which changes the trajectory.
@@ -259,7 +260,8 @@ fn a_boxed_in_robot_ends_with_a_recovery_and_a_reason() {
 #[test]
 fn a_60_s_rtguide_episode_in_a_generated_world_of_each_kind_has_no_collisions() {
     // Measured on the CI machine (2026-12-02, seed 3, latency none, 20 hidden views, the
-    // committed suite), RT-GuIDE with its default frontier regions: apartment_01 18.0 m, 0
+    // committed suite), RT-GuIDE with its default frontier regions (the same to the decimal
+    // with frontiers first, the default since): apartment_01 18.0 m, 0
     // recoveries, coverage 50.0%, PSNR 13.9 dB; office_01 13.6 m, 0 recoveries, 39.6%, 12.7 dB;
     // warehouse_01 19.2 m, 1 recovery, 16.7%, 8.5 dB (it clears the spawn room first; the
     // paper's planner, `frontier_regions` off, covers more of the hall in 60 s, 32.4%, and
