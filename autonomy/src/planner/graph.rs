@@ -185,6 +185,18 @@ impl TopologicalGraph {
         self.edges.retain(|(a, b, _)| *a != i && *b != i);
     }
 
+    /// Cuts every edge of node `i` and returns them, for `restore` to put back.
+    pub fn take_edges(&mut self, i: usize) -> Vec<(usize, usize, f64)> {
+        let (taken, kept) = self.edges.iter().partition(|(a, b, _)| *a == i || *b == i);
+        self.edges = kept;
+        taken
+    }
+
+    /// Puts back edges `take_edges` cut.
+    pub fn restore(&mut self, edges: Vec<(usize, usize, f64)>) {
+        self.edges.extend(edges);
+    }
+
     /// Dijkstra from `source`.
     pub fn dijkstra(&self, source: usize) -> ShortestPaths {
         let n = self.nodes.len();

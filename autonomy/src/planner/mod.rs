@@ -325,9 +325,14 @@ impl RtGuidePlanner {
             let unseen = UNSEEN_UNCERTAINTY * cfg.region_size;
             self.add_frontier_viewpoints(view, robot, unseen);
         }
+        // Frontiers first: the regions' viewpoints yield while a frontier is offered, and come
+        // back if no frontier viewpoint can be chosen (one within `min_viewpoint_distance` of
+        // the graph's node at the robot, say), so an offer that cannot be taken never leaves
+        // the robot without a goal.
+        let mut yielded = Vec::new();
         if cfg.frontiers_first && !self.frontier_offers.is_empty() {
             for node in &region_viewpoints {
-                self.graph.detach(*node);
+                yielded.extend(self.graph.take_edges(*node));
             }
         }
         let previous = self.target.filter(|t| {
@@ -343,15 +348,19 @@ impl RtGuidePlanner {
         // always, since the grid placed it (through a door, say) where it has a path.
         let mut free_path: Option<Vec<[f64; 2]>> = None;
         let (best, path) = loop {
-            let (best, path, _) = self
-                .graph
-                .best_viewpoint_keeping(
-                    source,
-                    cfg.min_viewpoint_distance,
-                    previous,
-                    cfg.keep_target_fraction,
-                )
-                .ok_or(PlanFailure::GoalUnreachable)?;
+            let Some((best, path, _)) = self.graph.best_viewpoint_keeping(
+                source,
+                cfg.min_viewpoint_distance,
+                previous,
+                cfg.keep_target_fraction,
+            ) else {
+                if yielded.is_empty() {
+                    return Err(PlanFailure::GoalUnreachable);
+                }
+                tracing::debug!("no frontier viewpoint can be chosen; the regions' come back");
+                self.graph.restore(std::mem::take(&mut yielded));
+                continue;
+            };
             let from = if path.len() >= 2 {
                 self.graph.nodes[path[path.len() - 2]].position
             } else {
@@ -702,12 +711,12 @@ mod tests {
         }
     }
 
-    #[test]
-    fn with_frontiers_first_a_far_frontier_outranks_a_near_region() {
+    /// Seen floor: a 7 x 4 m room round the origin and a 1.5 m wide corridor north from it to
+    /// y = 14 m, where it opens onto unseen space; walls two cells thick elsewhere. And a map
+    /// of one block of Gaussians 3 m east of the origin that still moves (Omega 1e-3).
+    fn room_with_a_corridor() -> (EvidenceGrid, GaussianMap) {
         use crate::gaussians::Gaussians;
         use crate::math::Point3;
-        // Seen floor: a 7 x 4 m room round the robot and a 1.5 m wide corridor north from it
-        // to y = 14 m, where it opens onto unseen space; walls two cells thick elsewhere.
         let cell = 0.05;
         let inside = |x: f64, y: f64| {
             ((-2.0..5.0).contains(&x) && (-2.0..2.0).contains(&y))
@@ -729,28 +738,37 @@ mod tests {
                 }
             }
         }
-        // A block of Gaussians 3 m east that still moves (Omega 1e-3), and nothing else.
         let mut g = Gaussians::default();
         for k in 0..400 {
             let (i, j) = ((k % 20) as f32, (k / 20) as f32);
             g.push([3.0 + 0.01 * i, 0.01 * j, 0.5], 0.02, 0.9, [0.5; 3]);
         }
-        let map = GaussianMap::new(g, vec![1e-3; 400]);
+        (grid, GaussianMap::new(g, vec![1e-3; 400]))
+    }
+
+    fn frontiers_first_planner(grid: &EvidenceGrid, frontiers_first: bool) -> RtGuidePlanner {
+        let mut planner = RtGuidePlanner::new(
+            PlannerConfig {
+                frontier_regions: true,
+                frontiers_first,
+                ..PlannerConfig::default()
+            },
+            CollisionEngine::Grid,
+        );
+        planner.evidence = Some(grid.clone());
+        planner
+    }
+
+    #[test]
+    fn with_frontiers_first_a_far_frontier_outranks_a_near_region() {
+        let (grid, map) = room_with_a_corridor();
         let robot = Pose2 {
             x: 0.0,
             y: 0.0,
             theta: 0.0,
         };
         let target = |frontiers_first: bool| {
-            let mut planner = RtGuidePlanner::new(
-                PlannerConfig {
-                    frontier_regions: true,
-                    frontiers_first,
-                    ..PlannerConfig::default()
-                },
-                CollisionEngine::Grid,
-            );
-            planner.evidence = Some(grid.clone());
+            let mut planner = frontiers_first_planner(&grid, frontiers_first);
             let plan = planner.plan(&map, robot).expect("a plan");
             let offers = planner.frontier_offers.clone();
             (plan.guidance.last().copied().expect("guidance"), offers)
@@ -769,6 +787,39 @@ mod tests {
             (first[1] - 14.0).abs() <= FRONTIER_GOAL_RADIUS + 0.1 && first[0].abs() < 0.75,
             "{first:?}"
         );
+    }
+
+    #[test]
+    fn with_frontiers_first_a_frontier_that_cannot_be_chosen_gives_the_regions_back() {
+        let (grid, map) = room_with_a_corridor();
+        // Where the corridor's frontier viewpoint lies, seen from inside the corridor.
+        let far = Pose2 {
+            x: 0.0,
+            y: 8.0,
+            theta: 0.0,
+        };
+        let mut probe = frontiers_first_planner(&grid, true);
+        probe.plan(&map, far).expect("a plan");
+        assert_eq!(probe.frontier_offers.len(), 1);
+        let offer = probe.frontier_offers[0].0;
+        // The robot 1.1 m short of it, the graph's node at the robot 0.9 m on, 0.2 m short of
+        // the viewpoint: the viewpoint is offered (over 1 m from the robot) but lies within
+        // 1 m of the plan's source node through the graph, so it cannot be chosen.
+        let robot = Pose2 {
+            x: offer[0],
+            y: offer[1] - 1.1,
+            theta: 0.0,
+        };
+        let mut planner = frontiers_first_planner(&grid, true);
+        planner
+            .graph
+            .visit([offer[0], offer[1] - 0.2], planner.config.odometry_spacing);
+        let plan = planner.plan(&map, robot).expect("the regions' viewpoints come back");
+        assert_eq!(planner.frontier_offers.len(), 1);
+        assert_eq!(planner.frontier_offers[0].0, offer);
+        // The target is one of the block's viewpoints, 3 m east of the origin.
+        let target = plan.guidance.last().copied().expect("guidance");
+        assert!(target[1] < 6.0, "{target:?}");
     }
 
     #[test]
