@@ -814,7 +814,9 @@ mod tests {
         planner
             .graph
             .visit([offer[0], offer[1] - 0.2], planner.config.odometry_spacing);
-        let plan = planner.plan(&map, robot).expect("the regions' viewpoints come back");
+        let plan = planner
+            .plan(&map, robot)
+            .expect("the regions' viewpoints come back");
         assert_eq!(planner.frontier_offers.len(), 1);
         assert_eq!(planner.frontier_offers[0].0, offer);
         // The target is one of the block's viewpoints, 3 m east of the origin.
