@@ -18,9 +18,6 @@ const LATE_DISTANCE: f64 = 0.02;
 const LATE_TURN: f64 = 0.02;
 /// A schedule that starts this far, metres, from where it was planned is logged (debug).
 const LOGGED_START_ERROR: f64 = 0.05;
-/// Spacing in time of the poses the safety check tries along the schedule, seconds: 3 cm at
-/// full speed, a tenth of the collision radius.
-const SAFETY_STEP: f64 = 0.05;
 
 /// Schedules, watches and the failure counts of an episode.
 #[derive(Debug)]
@@ -44,8 +41,6 @@ pub struct Controller {
     pub late_plans: usize,
     /// Per schedule started, metres between the robot and the pose it was planned from.
     pub start_pose_errors: Vec<f64>,
-    /// Halts because a newer map blocked what was left to drive before the next plan.
-    pub safety_stops: usize,
 }
 
 /// Wall seconds a think took: the mapping step, then the plan.
@@ -81,7 +76,6 @@ impl Controller {
             recovery_events: 0,
             late_plans: 0,
             start_pose_errors: Vec::new(),
-            safety_stops: 0,
         }
     }
 
@@ -157,32 +151,6 @@ impl Controller {
     /// until the waiting one starts, then on that.
     pub fn start_pose(&self, pose: Pose2, time: f64, lead: f64) -> Pose2 {
         schedule::predict(|t| self.command_at(t), pose, time, lead)
-    }
-
-    /// The poses the robot will pass, from `pose` at `time`, between `from` and `to`
-    /// (simulated times), every `SAFETY_STEP` seconds and at both ends.
-    pub fn poses_between(&self, pose: Pose2, time: f64, from: f64, to: f64) -> Vec<Pose2> {
-        let command = |t| self.command_at(t);
-        let mut at = schedule::predict(command, pose, time, from - time);
-        let mut poses = vec![at];
-        let mut t = from;
-        while t < to {
-            let step = SAFETY_STEP.min(to - t);
-            at = schedule::predict(command, at, t, step);
-            poses.push(at);
-            t += step;
-        }
-        poses
-    }
-
-    /// Stands the robot still from `at` (simulated time) until the next plan starts: the
-    /// newest map blocks what is left of the schedules it follows meanwhile.
-    pub fn halt(&mut self, at: f64) {
-        self.safety_stops += 1;
-        self.current.halt = self.current.halt.min(at);
-        if let Some((p, _)) = &mut self.pending {
-            p.halt = p.halt.min(at);
-        }
     }
 
     /// Takes a think's outcome: `decision` (`None` when the watch overruled the planner)
@@ -468,57 +436,5 @@ mod tests {
             (p.x - want.x).abs() < 1e-9 && p.y.abs() < 1e-9 && (p.theta - want.theta).abs() < 1e-9,
             "{p:?}"
         );
-    }
-
-    #[test]
-    fn a_halt_stands_the_robot_still_until_the_next_plan_and_the_start_pose_knows_it() {
-        let origin = Pose2::default();
-        let mut c = Controller::new(origin, Latency::Wall, DriveLimits::default());
-        c.take(
-            Some(plan(FORWARD, 5, origin)),
-            0.0,
-            origin,
-            origin,
-            think(0.0, 0.0),
-            0.0,
-        );
-        c.advance_to(0.0);
-        // From 1.0 s the schedule would drive 0.5 m/s; poses every 50 ms from 1.2 s to 1.6 s.
-        let ahead = c.poses_between(origin, 1.0, 1.2, 1.6);
-        assert_eq!(ahead.len(), 9);
-        for (k, p) in ahead.iter().enumerate() {
-            let want = 0.5 * (0.2 + 0.05 * k as f64);
-            assert!((p.x - want).abs() < 1e-9 && p.y.abs() < 1e-12, "{k}: {p:?}");
-        }
-        // Halted at 1.2 s, it stops there and a plan for 1.6 s starts 0.1 m on.
-        c.halt(1.2);
-        assert_eq!(c.safety_stops, 1);
-        assert_eq!(c.command(1.19), FORWARD);
-        assert_eq!(c.command(1.2), UnicycleCommand::STOP);
-        assert_eq!(c.command(3.0), UnicycleCommand::STOP);
-        let start = c.start_pose(origin, 1.0, 0.6);
-        assert!((start.x - 0.1).abs() < 1e-9, "{start:?}");
-        // A waiting schedule is halted too, and the next plan replaces both.
-        c.take(
-            Some(plan(TURN, 3, start)),
-            1.0,
-            origin,
-            start,
-            think(0.2, 0.4),
-            0.6,
-        );
-        c.halt(1.3);
-        c.advance_to(1.6);
-        assert_eq!(c.command(1.7), UnicycleCommand::STOP);
-        c.take(
-            Some(plan(TURN, 3, start)),
-            2.0,
-            start,
-            start,
-            think(0.2, 0.4),
-            0.6,
-        );
-        c.advance_to(2.6);
-        assert_eq!(c.command(2.7), TURN);
     }
 }

@@ -50,9 +50,6 @@ pub struct Metrics {
     /// How far, metres, the robot was from the pose its schedules were planned from when they
     /// started: the error of the compute delay's prediction (zeros with `--latency none`).
     pub start_pose_error: Percentiles,
-    /// Halts by the host's safety check (wall latency): a newer map blocked what was left
-    /// to drive before the next plan.
-    pub safety_stops: usize,
     /// Planner failures by kind.
     pub plan_failures: std::collections::BTreeMap<String, usize>,
     /// Gaussians in the final map.

@@ -26,7 +26,6 @@ use std::time::Instant;
 
 mod control;
 mod metrics;
-mod safety;
 
 pub use crate::planners::{PlannerKind, PlannerOptions};
 use control::{Controller, ThinkTime, Verdict};
@@ -216,7 +215,6 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     let mut have_frame = false;
     let mut last_pose = world.pose();
     let mut control = Controller::new(last_pose, config.latency, world.robot().limits);
-    let mut safety = (config.latency == Latency::Wall).then(safety::SafetyCheck::new);
     let (mut mapping_times, mut planning_times) = (Vec::new(), Vec::new());
     let (mut camera_times, mut physics_times) = (Vec::new(), Vec::new());
     let (mut collision_steps, mut path_length) = (0, 0.0);
@@ -291,22 +289,8 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
                 }
                 let pose = world.pose();
                 control.observe(&pose);
-                let mapped = (t1 - t0).as_secs_f64();
-                if let Some(safety) = &mut safety {
-                    // What the robot drives from the end of mapping until the next plan can
-                    // start, checked against the map that step made.
-                    let (from, to) = (time + mapped, time + control.lead(mapped));
-                    let ahead = control.poses_between(pose, time, from, to);
-                    if !safety.clear(mapper.map(), &ahead) {
-                        tracing::debug!(
-                            "t = {time:.2} s: the new map blocks the schedule before the next \
-                             plan; halting at {from:.2} s"
-                        );
-                        control.halt(from);
-                    }
-                }
                 if !control.holding(time + 0.5 * timestep) {
-                    let lead = control.lead(mapped);
+                    let lead = control.lead((t1 - t0).as_secs_f64());
                     let start = control.start_pose(pose, time, lead);
                     let decision =
                         (!control.stalled(time, &pose)).then(|| planner.plan(mapper.map(), start));
@@ -427,7 +411,6 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
         recovery_events: control.recovery_events,
         late_plans: control.late_plans,
         start_pose_error: percentiles(control.start_pose_errors.clone()),
-        safety_stops: control.safety_stops,
         plan_failures: control.failures.clone(),
         gaussians: mapper.map().len(),
         frames: writer.frame_count(),

@@ -16,9 +16,6 @@ pub struct Schedule {
     /// Seconds from `start` it runs before the planner is asked again (infinity for a
     /// recovery manoeuvre or a look around, which replanning every period would cut short).
     pub commit: f64,
-    /// Simulated time from which the robot stands still whatever the commands say (infinity
-    /// unless the host's safety check halted it: a newer map blocks what is left).
-    pub halt: f64,
 }
 
 /// Steps of a recovery manoeuvre, seconds.
@@ -38,7 +35,6 @@ impl Schedule {
             period: 1.0,
             commands: Vec::new(),
             commit: 0.0,
-            halt: f64::INFINITY,
         }
     }
 
@@ -49,7 +45,6 @@ impl Schedule {
             period: plan.period,
             commands: plan.commands.clone(),
             commit: plan.commit,
-            halt: f64::INFINITY,
         }
     }
 
@@ -96,13 +91,12 @@ impl Schedule {
             period: RECOVERY_TICK,
             commands,
             commit: f64::INFINITY,
-            halt: f64::INFINITY,
         }
     }
 
-    /// When the last command ends, or the halt if that comes first.
+    /// When the last command ends.
     pub fn end(&self) -> f64 {
-        (self.start + self.period * self.commands.len() as f64).min(self.halt.max(self.start))
+        self.start + self.period * self.commands.len() as f64
     }
 
     /// Whether the schedule is still within its commitment at `time`.
@@ -110,11 +104,10 @@ impl Schedule {
         time < self.end().min(self.start + self.commit)
     }
 
-    /// The command at simulated time `t`: standing still before the start and after the end
-    /// (or the halt).
+    /// The command at simulated time `t`: standing still before the start and after the end.
     pub fn at(&self, t: f64) -> UnicycleCommand {
         let k = ((t - self.start) / self.period).floor();
-        if k < 0.0 || t >= self.halt {
+        if k < 0.0 {
             return UnicycleCommand::STOP;
         }
         self.commands
