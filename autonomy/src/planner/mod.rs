@@ -78,8 +78,9 @@ pub struct PlannerConfig {
     /// yield to it. A region's Omega is a displacement per mapping step, which Adam keeps to
     /// about its step size (1.7 mm at 10 iterations), some 300 times below a frontier's;
     /// but e^d weighs 6 m more of path as much, and the robot lingered among nearby regions
-    /// with a room unseen 15 m off (office_02: 600 s in one room). Off: they compete by
-    /// Omega / e^d (a flagged extension, `--rtguide-frontiers-first`).
+    /// with a room unseen 15 m off (office_02: 600 s in one room). They come back when no
+    /// frontier viewpoint can be chosen. Off: they compete by Omega / e^d (a flagged
+    /// extension, `--rtguide-frontiers-first`, on by default on the command line).
     pub frontiers_first: bool,
 }
 
@@ -172,8 +173,9 @@ pub struct RtGuidePlanner {
     executor: Executor,
     tally: Tally,
     counter: ViewCounter,
-    /// The viewpoint the last plan headed for: kept while it scores at least half the best,
-    /// so two similar viewpoints do not make the robot dither between them.
+    /// The viewpoint the last plan headed for: kept while it scores at least
+    /// `keep_target_fraction` of the best, so two similar viewpoints do not make the robot
+    /// dither between them.
     target: Option<[f64; 2]>,
     /// Whether the robot is closing on the target.
     target_progress: TargetProgress,
