@@ -182,7 +182,7 @@ impl TopologicalGraph {
     /// Cuts every edge of node `i`, so no path reaches it (a viewpoint found to lie behind a
     /// wall).
     pub fn detach(&mut self, i: usize) {
-        self.edges.retain(|(a, b, _)| *a != i && *b != i);
+        self.take_edges(i);
     }
 
     /// Cuts every edge of node `i` and returns them, for `restore` to put back.
