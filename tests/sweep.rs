@@ -182,6 +182,18 @@ fn a_sweep_gathers_every_episode_and_a_rerun_runs_nothing() {
         100.0 * mean
     )));
     assert!(summary.contains("## Against the survey"));
+    // 10 s is too short for the room's survey route: the summary says whose budget is a cap's.
+    for row in table.iter().filter(|r| r["planner"] == "survey") {
+        assert_eq!(row["ended"], "budget", "{row:?}");
+    }
+    let cut_short = summary
+        .lines()
+        .find(|l| l.starts_with("**Surveys cut short"))
+        .expect("the cut-short surveys named");
+    assert!(
+        cut_short.ends_with("room (seed 1), room (seed 2)."),
+        "{cut_short}"
+    );
     // The charts have their points: the first world's colour.
     assert!(pixels_of(&out.join("summary.png"), [31, 119, 180]) > 50);
     assert!(pixels_of(&out.join("coverage_over_time.png"), [31, 119, 180]) > 50);

@@ -15,6 +15,10 @@ use autonomy::map::GaussianMap;
 use std::f64::consts::TAU;
 pub use tour::{plan_tour, Tour, TourConfig};
 
+/// Why a survey episode ends when its route is driven (metrics.json's `ended`); a survey that
+/// ends on its budget instead saw less than a survey does, which the sweep reports.
+pub const SURVEY_COMPLETE: &str = "survey complete";
+
 /// The survey's cruise speed (the pursuit driver's), m/s.
 const CRUISE: f64 = 0.5;
 
@@ -200,7 +204,7 @@ impl Planner for SurveyPlanner {
 
     fn plan(&mut self, _map: &GaussianMap, start: Pose2) -> Decision {
         if self.driver.remaining() == 0 {
-            return Decision::Done("survey complete".to_owned());
+            return Decision::Done(SURVEY_COMPLETE.to_owned());
         }
         let n = (self.period / self.tick).round().max(1.0) as usize;
         let mut states = vec![start];

@@ -113,6 +113,19 @@ pub fn run_sweep(
     progress.complete = report.skipped;
     on_progress(&progress);
     for (number, batch) in sweep.batches().into_iter().enumerate() {
+        if number > 0 {
+            // The surveys have run: say which set a budget from their cap, not their route.
+            for survey in sweep.cut_short_surveys() {
+                tracing::warn!(
+                    "the survey in {} (seed {}) ended before its route did, on the survey budget; \
+                     the planners there get {} x that budget, not the survey's time: rerun the \
+                     sweep in a new folder with a larger --survey-budget",
+                    survey.world_name,
+                    survey.seed,
+                    sweep.factor().unwrap_or(1.0),
+                );
+            }
+        }
         let mut tasks = Vec::new();
         for &i in batch.iter().filter(|&&i| !done[i]) {
             let e = &sweep.episodes[i];

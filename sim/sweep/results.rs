@@ -278,6 +278,18 @@ pub fn summary(sweep: &Sweep, columns: &[String], rows: &[Row]) -> String {
         ),
     };
     let _ = writeln!(md, "Budget: {budget}.\n");
+    let cut_short = sweep.cut_short_surveys();
+    if !cut_short.is_empty() {
+        let names: Vec<String> = cut_short
+            .iter()
+            .map(|e| format!("{} (seed {})", e.world_name, e.seed))
+            .collect();
+        let _ = writeln!(
+            md,
+            "**Surveys cut short by the survey budget** (their route was not finished, so the planners there had a multiple of the cap, not of the survey's time; rerun in a new folder with a larger `--survey-budget`): {}.\n",
+            names.join(", ")
+        );
+    }
     let _ = writeln!(
         md,
         "Run options: `{}`\n",

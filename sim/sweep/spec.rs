@@ -235,6 +235,34 @@ impl Sweep {
         }
     }
 
+    /// The survey factor (survey-factor mode).
+    pub fn factor(&self) -> Option<f64> {
+        match self.spec.budget {
+            Budget::SurveyFactor { factor, .. } => Some(factor),
+            Budget::Seconds(_) => None,
+        }
+    }
+
+    /// The complete surveys (survey-factor mode) that ended before their route did, on the
+    /// sweep's `survey_budget`: the budgets they set are the survey budget's multiple, not the
+    /// survey's time, so a user should rerun with a larger `--survey-budget`.
+    pub fn cut_short_surveys(&self) -> Vec<&Episode> {
+        if !matches!(self.spec.budget, Budget::SurveyFactor { .. }) {
+            return Vec::new();
+        }
+        let survey = PlannerKind::Survey.name();
+        self.episodes
+            .iter()
+            .filter(|e| e.planner == survey)
+            .filter(|e| match self.state(e) {
+                EpisodeState::Complete { metrics } => {
+                    metrics["ended"].as_str() != Some(crate::survey::SURVEY_COMPLETE)
+                }
+                _ => false,
+            })
+            .collect()
+    }
+
     /// The survey episode whose time sets this episode's budget (survey-factor mode).
     pub fn survey_of(&self, e: &Episode) -> Option<&Episode> {
         let survey = PlannerKind::Survey.name();
@@ -576,6 +604,41 @@ mod tests {
             ),
             Err(SimError::SweepChanged { .. })
         ));
+    }
+
+    #[test]
+    fn only_surveys_that_ended_before_their_route_are_cut_short() {
+        let tmp = tempfile::tempdir().expect("temporary folder");
+        let (world, out) = clone_at(tmp.path());
+        let mut settings = spec(&world);
+        settings.planners = vec!["survey".into(), "fbe".into()];
+        settings.seeds = vec![3, 4, 5];
+        settings.budget = Budget::SurveyFactor {
+            factor: 1.5,
+            survey_budget: 100.0,
+        };
+        let sweep = Sweep::open(&out, settings).expect("a new sweep");
+        let ended = |planner: &str, seed: u64, why: &str| {
+            let e = sweep
+                .episodes
+                .iter()
+                .find(|e| e.planner == planner && e.seed == seed)
+                .expect("episode");
+            let folder = sweep.folder(e);
+            std::fs::create_dir_all(&folder).expect("episode folder");
+            let metrics = serde_json::json!({ "ended": why, "simulated_seconds": 100.0 });
+            std::fs::write(folder.join("metrics.json"), metrics.to_string()).expect("metrics");
+        };
+        ended("survey", 3, crate::survey::SURVEY_COMPLETE);
+        ended("survey", 4, "budget");
+        ended("fbe", 3, "budget");
+        // Seed 5's survey has not run: not cut short, just not complete.
+        let cut: Vec<u64> = sweep.cut_short_surveys().iter().map(|e| e.seed).collect();
+        assert_eq!(cut, [4]);
+        // With a budget in seconds no survey sets a budget, so none is cut short.
+        let mut seconds = sweep;
+        seconds.spec.budget = Budget::Seconds(100.0);
+        assert!(seconds.cut_short_surveys().is_empty());
     }
 
     #[test]
