@@ -148,6 +148,45 @@ fn one_ray_clears_up_to_the_wall_marks_it_and_leaves_what_is_behind() {
     assert_eq!(grid.class([3.975, 1.025]), CellClass::Unknown);
 }
 
+#[test]
+fn a_ray_over_a_table_clears_nothing_above_the_free_height() {
+    // From the camera (0.4 m) to a wall point 3 m ahead at 1.0 m, over a table: with the
+    // free height at 0.6 m the ray clears only its first metre (where it is below 0.6 m),
+    // yet still marks the wall.
+    let mut grid = EvidenceGrid::new(EvidenceConfig {
+        free_height: 0.6,
+        ..EvidenceConfig::default()
+    });
+    grid.integrate_ray(Point3::new(0.0, 0.025, 0.4), Point3::new(3.0, 0.025, 1.0));
+    let cut = 3.0 * (0.6 - 0.4) / (1.0 - 0.4);
+    for k in 0..60 {
+        let x = 0.025 + 0.05 * k as f64;
+        let expected = if x < cut - 0.05 {
+            CellClass::Free
+        } else if x > cut + 0.05 {
+            CellClass::Unknown
+        } else {
+            continue;
+        };
+        assert_eq!(grid.class([x, 0.025]), expected, "x = {x}");
+    }
+    assert_eq!(grid.class([3.025, 0.025]), CellClass::Occupied);
+    // AG-SLAM's grid (free height = the band's top) clears the whole way.
+    let mut agslam = EvidenceGrid::new(EvidenceConfig::default());
+    agslam.integrate_ray(Point3::new(0.0, 0.025, 0.4), Point3::new(3.0, 0.025, 1.0));
+    assert_eq!(agslam.class([2.475, 0.025]), CellClass::Free);
+    // From a camera above the free height, a ray to the floor clears from where it comes
+    // under it: 0.3 m of 0.4 m down is three quarters of the way.
+    let mut high = EvidenceGrid::new(EvidenceConfig {
+        free_height: 0.3,
+        ..EvidenceConfig::default()
+    });
+    high.integrate_ray(Point3::new(0.0, 0.025, 0.4), Point3::new(2.0, 0.025, 0.0));
+    assert_eq!(high.class([0.425, 0.025]), CellClass::Unknown);
+    assert_eq!(high.class([0.575, 0.025]), CellClass::Free);
+    assert_eq!(high.class([1.975, 0.025]), CellClass::Free);
+}
+
 fn mount(width: u32, height: u32) -> CameraMount {
     CameraMount {
         intrinsics: Intrinsics::from_fovy(60f64.to_radians(), width, height),
