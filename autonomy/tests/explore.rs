@@ -149,17 +149,17 @@ fn one_ray_clears_up_to_the_wall_marks_it_and_leaves_what_is_behind() {
 }
 
 #[test]
-fn with_a_low_band_a_ray_over_a_table_clears_only_below_its_top() {
+fn with_a_low_free_height_a_ray_over_a_table_clears_only_below_it() {
     // From the camera (0.4 m) to a wall point 3 m ahead at 1.0 m, over a table: with the
-    // band's top at 0.6 m (RT-GuIDE's grid: the robot's body) the ray clears only its first
-    // metre, and its end is no obstacle to the body.
+    // free height at 0.6 m (RT-GuIDE's grid: the robot's top) the ray clears only its first
+    // metre, and still marks the wall.
     let mut grid = EvidenceGrid::new(EvidenceConfig {
-        max_height: 0.6,
+        free_height: 0.6,
         ..EvidenceConfig::default()
     });
     grid.integrate_ray(Point3::new(0.0, 0.025, 0.4), Point3::new(3.0, 0.025, 1.0));
     let cut = 3.0 * (0.6 - 0.4) / (1.0 - 0.4);
-    for k in 0..61 {
+    for k in 0..60 {
         let x = 0.025 + 0.05 * k as f64;
         let expected = if x < cut - 0.05 {
             CellClass::Free
@@ -170,7 +170,8 @@ fn with_a_low_band_a_ray_over_a_table_clears_only_below_its_top() {
         };
         assert_eq!(grid.class([x, 0.025]), expected, "x = {x}");
     }
-    // A table top's Gaussians (0.73 m) are no obstacle in that band; a leg's are.
+    assert_eq!(grid.class([3.025, 0.025]), CellClass::Occupied);
+    // A table top's Gaussians (0.73 m) are no obstacle under it; a leg's are.
     let top: Vec<[f32; 3]> = (0..60).map(|_| [1.5, 0.5, 0.73]).collect();
     let leg: Vec<[f32; 3]> = (0..60).map(|_| [1.5, 0.5, 0.3]).collect();
     grid.integrate_ray(Point3::new(0.0, 0.525, 0.4), Point3::new(2.0, 0.525, 0.0));

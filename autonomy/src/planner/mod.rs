@@ -217,14 +217,12 @@ impl RtGuidePlanner {
             engine,
         );
         let evidence = (config.free_space_edges || config.frontier_regions).then(|| {
-            // The grid of what the robot's body meets: a ray over a table top proves nothing
-            // at the body's height (with AG-SLAM's 1.3 m, rays over a solid table's top
-            // cleared its unseen side: apartment, 57 s), and a table top's Gaussians are no
-            // wall to a robot that fits under it (apartment_01: stuck under a table, 46 s).
+            // Free space is what the robot's body fits through: rays above its collision
+            // sphere's top say nothing about it, and Gaussians above it do not block it.
             let body_top =
                 f64::from(config.collision.centre_height + config.collision.robot_radius);
             EvidenceGrid::new(EvidenceConfig {
-                max_height: body_top,
+                free_height: body_top,
                 ..EvidenceConfig::default()
             })
         });
