@@ -100,16 +100,10 @@ const FRONTIER_GOAL_CLEARANCE: f64 = 0.35;
 /// its region, on average about half a side (0.48) from the region's centre. A frontier opens
 /// that much in proportion to its length against a region's side (a whole side at most).
 const UNSEEN_UNCERTAINTY: f64 = 0.5;
-/// Candidates keep this from cells not seen free (unseen, or where a depth ray ended),
-/// metres: the chassis' corner radius (0.30 m, what a turn in place sweeps) and half a cell,
-/// so that any pose a candidate reaches can be turned in place. At 0.22 m from unseen cells
-/// only (the chassis' half width and a cell) the robot drove to 0.30 m of a wall it had not
-/// seen and its corner struck it as it turned (apartment_02, twice in 663 s); and a hole in
-/// the Gaussians on a table's side that depth rays had hit let it turn into the table
-/// (apartment, 41 s). Not the full collision radius: unseen cells wrap round every door jamb,
-/// and at 0.35 m no candidate through a door into an unseen room passed (office_01, before
-/// the clear-start fallback below).
-const UNFREE_CLEARANCE: f64 = 0.33;
+/// Candidates keep this from unseen cells, metres: the chassis' half width and a cell. Not the
+/// full collision radius: unseen cells wrap round every door jamb, and at 0.35 m no candidate
+/// through a door into an unseen room passed (office_01: stuck at a door after 191 s).
+const UNSEEN_CLEARANCE: f64 = 0.22;
 /// A frontier whose cell nearest its centroid is this near a cleared one's is not offered
 /// again, metres (FBE's blacklist radius).
 const CLEARED_FRONTIER_RADIUS: f64 = 0.5;
@@ -216,16 +210,8 @@ impl RtGuidePlanner {
             },
             engine,
         );
-        let evidence = (config.free_space_edges || config.frontier_regions).then(|| {
-            // Free space is what the robot's body fits through: rays above its collision
-            // sphere's top say nothing about it, and Gaussians above it do not block it.
-            let body_top =
-                f64::from(config.collision.centre_height + config.collision.robot_radius);
-            EvidenceGrid::new(EvidenceConfig {
-                free_height: body_top,
-                ..EvidenceConfig::default()
-            })
-        });
+        let evidence = (config.free_space_edges || config.frontier_regions)
+            .then(|| EvidenceGrid::new(EvidenceConfig::default()));
         let tally = Tally::new(config.region_size);
         let counter = ViewCounter::new(config.mount, config.information_cell);
         RtGuidePlanner {
@@ -450,14 +436,13 @@ impl RtGuidePlanner {
 
         let t1 = Instant::now();
         let mut trajectories = self.executor.candidates(robot, goal);
-        // Sent into rooms it has not seen, the robot also keeps clear of the grid's cells not
-        // seen free: the Gaussian check alone takes the unseen side of a table for floor, and
-        // a hole in the Gaussians where depth rays ended for a way through.
+        // Sent into rooms it has not seen, the robot also keeps clear of the grid's unseen
+        // cells: the Gaussian check alone takes the unseen side of a table for floor.
         if let Some(view) = view.as_ref().filter(|_| cfg.frontier_regions) {
-            let unseen = UnfreeDistance::new(&view.grid);
+            let unseen = UnseenDistance::new(&view.grid);
             let period = cfg.search.primitives.duration;
             let clear =
-                |t: &search::Trajectory| unseen.clear_segments(t, period, UNFREE_CLEARANCE, robot);
+                |t: &search::Trajectory| unseen.clear_segments(t, period, UNSEEN_CLEARANCE, robot);
             let (kept, near_unseen): (Vec<_>, Vec<_>) = trajectories
                 .into_iter()
                 .partition(|t| clear(t) == t.controls.len());
@@ -519,26 +504,28 @@ impl RtGuidePlanner {
     }
 }
 
-/// Per cell of the evidence grid, the distance to the nearest cell not seen free: one no ray
-/// has crossed yet, or one where rays ended (an obstacle, whether the Gaussians show it yet
-/// or not).
-struct UnfreeDistance<'a> {
+/// Per cell of the evidence grid, the distance to the nearest cell no ray has crossed yet.
+struct UnseenDistance<'a> {
     grid: &'a ClassGrid,
     distance: Vec<f64>,
 }
 
-impl<'a> UnfreeDistance<'a> {
+impl<'a> UnseenDistance<'a> {
     fn new(grid: &'a ClassGrid) -> Self {
-        let free: Vec<bool> = grid.classes.iter().map(|c| *c == CellClass::Free).collect();
-        UnfreeDistance {
+        let seen: Vec<bool> = grid
+            .classes
+            .iter()
+            .map(|c| *c != CellClass::Unknown)
+            .collect();
+        UnseenDistance {
             grid,
-            distance: crate::explore::frontier::clearance(grid, &free),
+            distance: crate::explore::frontier::clearance(grid, &seen),
         }
     }
 
     /// How many of `t`'s segments, from its start, have every sample point (10 cm apart)
-    /// `radius` from cells not seen free; points within the footprint of `start` need only be
-    /// as far as `start` is (the robot stands there), points off the grid fail.
+    /// `radius` from unseen cells; points within the footprint of `start` pass (the robot
+    /// stands there), points off the grid fail.
     fn clear_segments(
         &self,
         t: &search::Trajectory,
@@ -546,19 +533,16 @@ impl<'a> UnfreeDistance<'a> {
         radius: f64,
         start: Pose2,
     ) -> usize {
-        let distance = |x: f64, y: f64| self.grid.cell_of([x, y]).map(|c| self.distance[c]);
-        // Within its footprint the robot may stay as near as it stands, not come nearer: a
-        // short arc (0.3 m) lies wholly inside it, and passed unchecked into a table the
-        // Gaussians had a hole in (apartment, 41 s).
-        let standing = distance(start.x, start.y).unwrap_or(0.0).min(radius);
         t.controls
             .iter()
             .zip(&t.states)
             .take_while(|(u, s)| {
                 search::segment_points(s, u, period, 0.1).iter().all(|p| {
-                    let within = (p.x - start.x).hypot(p.y - start.y) <= FOOTPRINT;
-                    let need = if within { standing } else { radius };
-                    distance(p.x, p.y).is_some_and(|d| d >= need) || (within && standing == 0.0)
+                    (p.x - start.x).hypot(p.y - start.y) <= FOOTPRINT
+                        || self
+                            .grid
+                            .cell_of([p.x, p.y])
+                            .is_some_and(|c| self.distance[c] >= radius)
                 })
             })
             .count()
@@ -609,7 +593,6 @@ impl RtGuidePlanner {
                 .chain(&self.set_aside_frontiers)
                 .any(|k| (k[0] - c[0]).hypot(k[1] - c[1]) < CLEARED_FRONTIER_RADIUS);
             if skipped {
-                tracing::trace!("frontier at {c:.2?}: cleared or set aside before");
                 continue;
             }
             // The goals nearest the frontier first; at most FRONTIER_GOAL_CHECKS of them,
@@ -628,15 +611,9 @@ impl RtGuidePlanner {
                 .find(|(_, hit)| !hit)
                 .map(|(p, _)| *p)
             else {
-                tracing::trace!(
-                    "frontier at {c:.2?} ({} cells): none of {} goals near it is clear",
-                    cluster.cells.len(),
-                    tried.len()
-                );
                 continue;
             };
             if (p[0] - robot.x).hypot(p[1] - robot.y) < cfg.min_viewpoint_distance {
-                tracing::trace!("frontier at {c:.2?}: its viewpoint {p:.2?} is at the robot");
                 continue;
             }
             let length = cluster.cells.len() as f64 * view.grid.cell;
@@ -829,13 +806,11 @@ mod tests {
         let offer = probe.frontier_offers[0].0;
         // The robot 1.1 m short of it, the graph's node at the robot 0.9 m on, 0.2 m short of
         // the viewpoint: the viewpoint is offered (over 1 m from the robot) but lies within
-        // 1 m of the plan's source node through the graph, so it cannot be chosen. The robot
-        // faces down the corridor (its walls are in the evidence grid only, which the
-        // candidates keep clear of but the search does not know).
+        // 1 m of the plan's source node through the graph, so it cannot be chosen.
         let robot = Pose2 {
             x: offer[0],
             y: offer[1] - 1.1,
-            theta: -std::f64::consts::FRAC_PI_2,
+            theta: 0.0,
         };
         let mut planner = frontiers_first_planner(&grid, true);
         planner
@@ -978,72 +953,19 @@ mod tests {
     }
 
     #[test]
-    fn within_its_footprint_the_robot_may_not_come_nearer_to_cells_not_seen_free() {
-        // Free floor with an occupied block at x in [3, 4], y in [1, 2]; the robot 0.4 m
-        // west of it. Every move below stays inside the robot's footprint (0.3 m).
+    fn candidates_keep_the_radius_from_unseen_cells_as_a_brute_force_scan_says() {
+        // 5 x 3 m seen, with an unseen 1 x 1 m block at x in [3, 4], y in [1, 2].
         let (w, h) = (100, 60);
         let mut g = ClassGrid::filled([w, h], [0.0, 0.0], 0.05, CellClass::Free);
         for c in 0..g.len() {
             let (x, y) = (c % w, c / w);
             if (60..80).contains(&x) && (20..40).contains(&y) {
-                g.classes[c] = CellClass::Occupied;
-            }
-        }
-        let distance = UnfreeDistance::new(&g);
-        let start = Pose2 {
-            x: 2.6,
-            y: 1.5,
-            theta: 0.0,
-        };
-        let step = |v: f64, w: f64| {
-            let u = UnicycleCommand { v, w };
-            search::Trajectory {
-                controls: vec![u],
-                states: vec![start, crate::drive::advance(&start, &u, 1.0)],
-                cost: 0.0,
-                distance_to_goal: 0.0,
-            }
-        };
-        let clear = |t: &search::Trajectory| distance.clear_segments(t, 1.0, 0.33, start);
-        // 0.25 m on toward the block: inside the footprint, but nearer than it stands.
-        assert_eq!(clear(&step(0.25, 0.0)), 0);
-        // Turning in place, or an arc that keeps its distance, stays as near as it was.
-        assert_eq!(clear(&step(0.0, 0.9)), 1);
-        // Away from the block.
-        let mut back = step(0.25, 0.0);
-        back.states = vec![
-            Pose2 {
-                theta: std::f64::consts::PI,
-                ..start
-            },
-            Pose2 {
-                x: start.x - 0.25,
-                theta: std::f64::consts::PI,
-                ..start
-            },
-        ];
-        assert_eq!(distance.clear_segments(&back, 1.0, 0.33, back.states[0]), 1);
-    }
-
-    #[test]
-    fn candidates_keep_the_radius_from_cells_not_seen_free_as_a_brute_force_scan_says() {
-        // 5 x 3 m seen free, with a 1 x 1 m block at x in [3, 4], y in [1, 2]: its west half
-        // occupied (where depth rays ended; the drive east into it stops there too), its
-        // east half unseen.
-        let (w, h) = (100, 60);
-        let mut g = ClassGrid::filled([w, h], [0.0, 0.0], 0.05, CellClass::Free);
-        for c in 0..g.len() {
-            let (x, y) = (c % w, c / w);
-            if (60..70).contains(&x) && (20..40).contains(&y) {
-                g.classes[c] = CellClass::Occupied;
-            }
-            if (70..80).contains(&x) && (20..40).contains(&y) {
                 g.classes[c] = CellClass::Unknown;
             }
         }
-        let unseen = UnfreeDistance::new(&g);
+        let unseen = UnseenDistance::new(&g);
         let cells: Vec<[f64; 2]> = (0..g.len())
-            .filter(|c| g.classes[*c] != CellClass::Free)
+            .filter(|c| g.classes[*c] == CellClass::Unknown)
             .map(|c| g.centre(c))
             .collect();
         // Brute force: per segment, the nearest unseen cell centre to any point of it; beyond
@@ -1081,7 +1003,7 @@ mod tests {
                 assert_eq!(
                     unseen.clear_segments(&t, 1.0, 0.35, start),
                     expected,
-                    "y = {y}: nearest cell not free per segment {d:.3?} m"
+                    "y = {y}: nearest unseen cell per segment {d:.3?} m"
                 );
                 partial += usize::from(expected > 0 && expected < 8);
             }
