@@ -113,7 +113,7 @@ pub fn run_sweep(
     progress.complete = report.skipped;
     on_progress(&progress);
     for (number, batch) in sweep.batches().into_iter().enumerate() {
-        if number > 0 {
+        if let Some(factor) = sweep.factor().filter(|_| number > 0) {
             // The surveys have run: say which set a budget from their cap, not their route.
             for survey in sweep.cut_short_surveys() {
                 tracing::warn!(
@@ -122,7 +122,7 @@ pub fn run_sweep(
                      sweep in a new folder with a larger --survey-budget",
                     survey.world_name,
                     survey.seed,
-                    sweep.factor().unwrap_or(1.0),
+                    factor,
                 );
             }
         }

@@ -247,7 +247,7 @@ impl Sweep {
     /// sweep's `survey_budget`: the budgets they set are the survey budget's multiple, not the
     /// survey's time, so a user should rerun with a larger `--survey-budget`.
     pub fn cut_short_surveys(&self) -> Vec<&Episode> {
-        if !matches!(self.spec.budget, Budget::SurveyFactor { .. }) {
+        if self.factor().is_none() {
             return Vec::new();
         }
         let survey = PlannerKind::Survey.name();
