@@ -79,11 +79,11 @@ fn agslam_explores_the_room_without_collisions_and_repeats_exactly() {
 
 #[test]
 fn rtguide_leaves_a_narrow_corridor_within_60_s_with_either_grid_extension() {
-    // Measured on the CI machine (2026-12-02, seed 3, latency none, 20 hidden views): with
-    // the default frontier regions (and frontiers first, the same to the decimal), in the
-    // first room at t = 14.8 s, 13.1 m, 4 recoveries,
-    // coverage 45.2%, PSNR 13.1 dB; with free-space edges alone (frontier regions off), at
-    // 33.4 s, coverage 63.7%, 15.5 dB. The paper's planner (both off) never leaves the
+    // Measured on the CI machine (2026-12-03, seed 3, latency none, 20 hidden views): with
+    // the default frontier regions and frontiers first, in the first room at t = 36.6 s,
+    // 9.8 m, 5 recoveries, coverage 51.1%, PSNR 13.89 dB (14.8 s before candidates kept
+    // 0.33 m from cells not seen free); with free-space edges alone (frontier regions off),
+    // at 30.0 s, coverage 63.0%, 15.70 dB. The paper's planner (both off) never leaves the
     // corridor: 4.5 m, 14 recoveries, 43.0%.
     let dir = tempfile::tempdir().expect("tempdir");
     for (name, frontier_regions, free_space_edges, coverage, psnr) in [

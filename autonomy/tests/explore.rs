@@ -148,6 +148,44 @@ fn one_ray_clears_up_to_the_wall_marks_it_and_leaves_what_is_behind() {
     assert_eq!(grid.class([3.975, 1.025]), CellClass::Unknown);
 }
 
+#[test]
+fn with_a_low_free_height_a_ray_over_a_table_clears_only_below_it() {
+    // From the camera (0.4 m) to a wall point 3 m ahead at 1.0 m, over a table: with the
+    // free height at 0.6 m (RT-GuIDE's grid: the robot's top) the ray clears only its first
+    // metre, and still marks the wall.
+    let mut grid = EvidenceGrid::new(EvidenceConfig {
+        free_height: 0.6,
+        ..EvidenceConfig::default()
+    });
+    grid.integrate_ray(Point3::new(0.0, 0.025, 0.4), Point3::new(3.0, 0.025, 1.0));
+    let cut = 3.0 * (0.6 - 0.4) / (1.0 - 0.4);
+    for k in 0..60 {
+        let x = 0.025 + 0.05 * k as f64;
+        let expected = if x < cut - 0.05 {
+            CellClass::Free
+        } else if x > cut + 0.05 {
+            CellClass::Unknown
+        } else {
+            continue;
+        };
+        assert_eq!(grid.class([x, 0.025]), expected, "x = {x}");
+    }
+    assert_eq!(grid.class([3.025, 0.025]), CellClass::Occupied);
+    // A table top's Gaussians (0.73 m) are no obstacle under it; a leg's are.
+    let top: Vec<[f32; 3]> = (0..60).map(|_| [1.5, 0.5, 0.73]).collect();
+    let leg: Vec<[f32; 3]> = (0..60).map(|_| [1.5, 0.5, 0.3]).collect();
+    grid.integrate_ray(Point3::new(0.0, 0.525, 0.4), Point3::new(2.0, 0.525, 0.0));
+    grid.set_gaussians(&top);
+    assert_eq!(grid.class([1.525, 0.525]), CellClass::Free);
+    grid.set_gaussians(&leg);
+    assert_eq!(grid.class([1.525, 0.525]), CellClass::Occupied);
+    // AG-SLAM's band (1.3 m) clears the whole way and counts the top.
+    let mut agslam = EvidenceGrid::new(EvidenceConfig::default());
+    agslam.integrate_ray(Point3::new(0.0, 0.025, 0.4), Point3::new(3.0, 0.025, 1.0));
+    assert_eq!(agslam.class([2.475, 0.025]), CellClass::Free);
+    assert_eq!(agslam.class([3.025, 0.025]), CellClass::Occupied);
+}
+
 fn mount(width: u32, height: u32) -> CameraMount {
     CameraMount {
         intrinsics: Intrinsics::from_fovy(60f64.to_radians(), width, height),

@@ -70,6 +70,31 @@ pub fn sample_point(model: &CollisionModel, s: &Pose2) -> [f32; 3] {
     [s.x as f32, s.y as f32, model.centre_height]
 }
 
+/// Headings tried for a way out of a start in collision (every 22.5 degrees).
+const ESCAPE_HEADINGS: usize = 16;
+
+/// Where a robot whose start collides with the map should back off to: of `push` (straight
+/// away from the obstacles it touches) and every `ESCAPE_HEADINGS` heading, the one whose
+/// point a back-off's drive away (`BACK_OFF_DISTANCE`) is least deep in the obstacles
+/// (`penetration`), the nearest to `push` among equals. Pushing away alone fails between two
+/// obstacles: in a gap narrower than the collision model (a door whose jamb's Gaussians grew
+/// as the robot passed), away from one side is into the other, and back-offs alternate
+/// without end (apartment_02: stuck after 12 back-offs in 47 s); along the gap is the way out.
+pub fn escape_heading(robot: &Pose2, push: f64, penetration: impl Fn([f64; 2]) -> f32) -> f64 {
+    let reach = super::schedule::BACK_OFF_DISTANCE;
+    let depth_toward = |h: f64| penetration([robot.x + reach * h.cos(), robot.y + reach * h.sin()]);
+    let mut best = (push, depth_toward(push));
+    for k in 0..ESCAPE_HEADINGS {
+        let h = wrap_angle(push + std::f64::consts::TAU * k as f64 / ESCAPE_HEADINGS as f64);
+        let depth = depth_toward(h);
+        let nearer = wrap_angle(h - push).abs() < wrap_angle(best.0 - push).abs();
+        if depth < best.1 || (depth == best.1 && nearer) {
+            best = (h, depth);
+        }
+    }
+    best.0
+}
+
 impl Executor {
     /// An executor with an empty map.
     pub fn new(config: ExecutorConfig, engine: CollisionEngine) -> Self {
@@ -143,7 +168,11 @@ impl Executor {
             ax += dx / n;
             ay += dy / n;
         }
-        Err(PlanFailure::StartInCollision { away: ay.atan2(ax) })
+        let height = self.config.collision.centre_height;
+        let away = escape_heading(robot, ay.atan2(ax), |q| {
+            self.grid.penetration([q[0] as f32, q[1] as f32, height])
+        });
+        Err(PlanFailure::StartInCollision { away })
     }
 
     /// Whether the straight segment between two points is clear, sampled every `step` metres.
@@ -305,4 +334,61 @@ pub fn visible_along(
         goal = p;
     }
     goal
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Penetration into obstacles (centre, reach) by brute force, in the plane.
+    fn depth(obstacles: &[([f64; 2], f64)], q: [f64; 2]) -> f32 {
+        obstacles
+            .iter()
+            .map(|(m, reach)| (reach - (q[0] - m[0]).hypot(q[1] - m[1])) as f32)
+            .fold(0.0, f32::max)
+    }
+
+    #[test]
+    fn a_start_between_two_obstacles_backs_off_along_the_gap() {
+        // A wall along y = 0.5 and a jamb's end at (0.15, -0.5), both reaching 0.52 m: the
+        // robot at the origin is in both, and straight away from the wall is into the jamb.
+        let mut obstacles: Vec<([f64; 2], f64)> =
+            (-20..=20).map(|k| ([0.05 * k as f64, 0.5], 0.52)).collect();
+        obstacles.push(([0.15, -0.5], 0.52));
+        let robot = Pose2 {
+            x: 0.0,
+            y: 0.0,
+            theta: 0.0,
+        };
+        let push = -std::f64::consts::FRAC_PI_2;
+        let away = escape_heading(&robot, push, |q| depth(&obstacles, q));
+        let at = |h: f64| {
+            let d = crate::explore::schedule::BACK_OFF_DISTANCE;
+            [d * h.cos(), d * h.sin()]
+        };
+        // Every heading on a fine circle: none is less deep than the one chosen by more than
+        // the coarse circle's step allows, and the push itself is deeper.
+        let finest = (0..360)
+            .map(|k| depth(&obstacles, at(std::f64::consts::TAU * k as f64 / 360.0)))
+            .fold(f32::INFINITY, f32::min);
+        let chosen = depth(&obstacles, at(away));
+        assert!(chosen <= finest + 0.01, "{chosen} vs {finest}");
+        assert!(chosen < depth(&obstacles, at(push)) - 0.05, "away {away}");
+        // Along the gap (west, away from the jamb), not across it.
+        assert!(away.cos() < -0.7, "away {away}");
+    }
+
+    #[test]
+    fn a_start_against_one_obstacle_backs_straight_away_from_it() {
+        // One obstacle ahead: every heading that clears it ties, and the push wins.
+        let obstacles = [([0.3, 0.0], 0.4)];
+        let robot = Pose2 {
+            x: 0.0,
+            y: 0.0,
+            theta: 0.0,
+        };
+        let push = std::f64::consts::PI;
+        let away = escape_heading(&robot, push, |q| depth(&obstacles, q));
+        assert_eq!(away, push);
+    }
 }

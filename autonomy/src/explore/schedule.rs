@@ -23,7 +23,7 @@ const RECOVERY_TICK: f64 = 0.1;
 /// Seconds of a look around (a little over half a turn at 0.9 rad/s).
 const LOOK_AROUND: f64 = 3.0;
 /// Metres a back-off drives once turned away.
-const BACK_OFF_DISTANCE: f64 = 0.15;
+pub const BACK_OFF_DISTANCE: f64 = 0.15;
 /// Forward speed of a back-off, m/s.
 const BACK_OFF_SPEED: f64 = 0.3;
 

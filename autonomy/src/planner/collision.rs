@@ -256,6 +256,23 @@ impl CollisionGrid {
         means
     }
 
+    /// How far `p` is inside the obstacles it collides with: the largest reach less distance
+    /// over them, 0 when it collides with none. A way out of a start in collision is a move
+    /// that makes this smaller, wherever the obstacles are.
+    pub fn penetration(&self, p: [f32; 3]) -> f32 {
+        let mut deepest = 0.0f32;
+        for cell in self.cells_around(p) {
+            for k in 0..cell.len() {
+                let m = cell.point(k);
+                let reach = self.model.robot_radius + self.model.gaussian_scale * cell.value[k];
+                let d =
+                    ((p[0] - m[0]).powi(2) + (p[1] - m[1]).powi(2) + (p[2] - m[2]).powi(2)).sqrt();
+                deepest = deepest.max(reach - d);
+            }
+        }
+        deepest
+    }
+
     /// Per point: does it collide?
     pub fn check(&self, points: &[[f32; 3]]) -> Vec<bool> {
         points.iter().map(|p| self.point_collides(*p)).collect()

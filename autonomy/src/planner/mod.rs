@@ -100,10 +100,25 @@ const FRONTIER_GOAL_CLEARANCE: f64 = 0.35;
 /// its region, on average about half a side (0.48) from the region's centre. A frontier opens
 /// that much in proportion to its length against a region's side (a whole side at most).
 const UNSEEN_UNCERTAINTY: f64 = 0.5;
-/// Candidates keep this from unseen cells, metres: the chassis' half width and a cell. Not the
-/// full collision radius: unseen cells wrap round every door jamb, and at 0.35 m no candidate
-/// through a door into an unseen room passed (office_01: stuck at a door after 191 s).
-const UNSEEN_CLEARANCE: f64 = 0.22;
+/// Candidates keep this from cells not seen free (unseen, or where a depth ray ended),
+/// metres: the chassis' corner radius (0.30 m, what a turn in place sweeps) and half a cell,
+/// so that any pose a candidate reaches can be turned in place. At 0.22 m from unseen cells
+/// only (the chassis' half width and a cell) the robot drove to 0.30 m of a wall it had not
+/// seen and its corner struck it as it turned (apartment_02, twice in 663 s); and a hole in
+/// the Gaussians on a table's side that depth rays had hit let it turn into the table
+/// (apartment, 41 s). Not the full collision radius: unseen cells wrap round every door jamb,
+/// and at 0.35 m no candidate through a door into an unseen room passed (office_01, before
+/// the clear-start fallback below).
+const UNFREE_CLEARANCE: f64 = 0.33;
+/// ... along a straight drive: the wheels' outer half width (0.245 m) and a little.
+const STRAIGHT_CLEARANCE: f64 = 0.27;
+/// A frontier target reached with its anchor more than this fraction of the image's half
+/// width off the optical axis gets a turn to face it first (at the edge of the image its
+/// depth rays are the fewest).
+const LOOK_FRACTION: f64 = 0.5;
+/// Most plans in a row a look at a reached frontier may take (half a turn is 4 at 0.9 rad/s);
+/// a robot that does not turn gives up on it.
+const MAX_LOOK_PLANS: usize = 5;
 /// A frontier whose cell nearest its centroid is this near a cleared one's is not offered
 /// again, metres (FBE's blacklist radius).
 const CLEARED_FRONTIER_RADIUS: f64 = 0.5;
@@ -190,6 +205,8 @@ pub struct RtGuidePlanner {
     /// Frontier cells reached, or given up `MAX_FRONTIER_ATTEMPTS` times: offered no more
     /// (FBE's blacklist).
     cleared_frontiers: Vec<[f64; 2]>,
+    /// A frontier target reached without facing it, and the plans spent turning to it.
+    look_at: Option<([f64; 2], usize)>,
     /// Frontier cells given up since the offers last ran dry: offered again only when no
     /// other frontier is, since a target is given up for the local planner's failures too.
     set_aside_frontiers: Vec<[f64; 2]>,
@@ -210,8 +227,16 @@ impl RtGuidePlanner {
             },
             engine,
         );
-        let evidence = (config.free_space_edges || config.frontier_regions)
-            .then(|| EvidenceGrid::new(EvidenceConfig::default()));
+        let evidence = (config.free_space_edges || config.frontier_regions).then(|| {
+            // Free space is what the robot's body fits through: rays above its collision
+            // sphere's top say nothing about it, and Gaussians above it do not block it.
+            let body_top =
+                f64::from(config.collision.centre_height + config.collision.robot_radius);
+            EvidenceGrid::new(EvidenceConfig {
+                free_height: body_top,
+                ..EvidenceConfig::default()
+            })
+        });
         let tally = Tally::new(config.region_size);
         let counter = ViewCounter::new(config.mount, config.information_cell);
         RtGuidePlanner {
@@ -227,6 +252,7 @@ impl RtGuidePlanner {
             frontier_offers: Vec::new(),
             target_frontier: None,
             cleared_frontiers: Vec::new(),
+            look_at: None,
             set_aside_frontiers: Vec::new(),
             given_up_frontiers: Vec::new(),
         }
@@ -269,7 +295,35 @@ impl RtGuidePlanner {
             if (t[0] - robot.x).hypot(t[1] - robot.y) < cfg.min_viewpoint_distance {
                 self.visited.push(t);
                 self.target = None;
-                self.cleared_frontiers.extend(self.target_frontier.take());
+                if let Some(anchor) = self.target_frontier.take() {
+                    self.cleared_frontiers.push(anchor);
+                    // Reached is within a metre of the viewpoint, whatever the robot faces: a
+                    // frontier it drove up to sideways was never seen, and cleared unseen it is
+                    // never offered again (office_02: a corridor's mouth cleared at 5 s while
+                    // the robot faced the room). It turns to face it before going on.
+                    self.look_at = Some((anchor, 0));
+                }
+            }
+        }
+        // A turn spans plans (one a second); each plan turns what is left of it.
+        if let Some((anchor, plans)) = self.look_at.take() {
+            let half_width = (cfg.mount.intrinsics.cx / cfg.mount.intrinsics.fx).atan();
+            let turn = (plans < MAX_LOOK_PLANS)
+                .then(|| look_toward(robot, anchor, half_width, &cfg.search))
+                .flatten();
+            if let Some(turn) = turn {
+                tracing::debug!("frontier at {anchor:.2?} reached unseen: turning to it");
+                self.look_at = Some((anchor, plans + 1));
+                return Ok(RtGuidePlan {
+                    information: 0.0,
+                    guidance: vec![[robot.x, robot.y], anchor],
+                    local_goal: anchor,
+                    candidates: 1,
+                    alternatives: vec![turn.states.clone()],
+                    seconds: [t0.elapsed().as_secs_f64(), 0.0, 0.0],
+                    controls: turn.controls,
+                    states: turn.states,
+                });
             }
         }
         // A frontier target kept for as long as any target may be without the robot closing
@@ -436,13 +490,14 @@ impl RtGuidePlanner {
 
         let t1 = Instant::now();
         let mut trajectories = self.executor.candidates(robot, goal);
-        // Sent into rooms it has not seen, the robot also keeps clear of the grid's unseen
-        // cells: the Gaussian check alone takes the unseen side of a table for floor.
+        // Sent into rooms it has not seen, the robot also keeps clear of the grid's cells not
+        // seen free: the Gaussian check alone takes the unseen side of a table for floor, and
+        // a hole in the Gaussians where depth rays ended for a way through.
         if let Some(view) = view.as_ref().filter(|_| cfg.frontier_regions) {
-            let unseen = UnseenDistance::new(&view.grid);
+            let unseen = UnfreeDistance::new(&view.grid);
             let period = cfg.search.primitives.duration;
             let clear =
-                |t: &search::Trajectory| unseen.clear_segments(t, period, UNSEEN_CLEARANCE, robot);
+                |t: &search::Trajectory| unseen.clear_segments(t, period, UNFREE_CLEARANCE, robot);
             let (kept, near_unseen): (Vec<_>, Vec<_>) = trajectories
                 .into_iter()
                 .partition(|t| clear(t) == t.controls.len());
@@ -504,28 +559,68 @@ impl RtGuidePlanner {
     }
 }
 
-/// Per cell of the evidence grid, the distance to the nearest cell no ray has crossed yet.
-struct UnseenDistance<'a> {
+/// A turn in place that brings `anchor` to the middle of the image, or `None` when it is
+/// already within `LOOK_FRACTION` of the image's half width (`half_width`, radians) of it.
+/// Equal segments of the primitives' period, none faster than their fastest turn.
+fn look_toward(
+    robot: Pose2,
+    anchor: [f64; 2],
+    half_width: f64,
+    search: &SearchConfig,
+) -> Option<search::Trajectory> {
+    let bearing = (anchor[1] - robot.y).atan2(anchor[0] - robot.x);
+    let turn = crate::drive::wrap_angle(bearing - robot.theta);
+    if turn.abs() <= LOOK_FRACTION * half_width {
+        return None;
+    }
+    let fastest = search
+        .primitives
+        .controls
+        .iter()
+        .map(|u| u.w.abs())
+        .fold(0.0, f64::max);
+    let period = search.primitives.duration;
+    if fastest <= 0.0 || period <= 0.0 {
+        return None;
+    }
+    let segments = (turn.abs() / (fastest * period)).ceil().max(1.0) as usize;
+    let u = UnicycleCommand {
+        v: 0.0,
+        w: turn / (segments as f64 * period),
+    };
+    let mut states = vec![robot];
+    for _ in 0..segments {
+        let last = states[states.len() - 1];
+        states.push(crate::drive::advance(&last, &u, period));
+    }
+    Some(search::Trajectory {
+        controls: vec![u; segments],
+        states,
+        cost: 0.0,
+        distance_to_goal: 0.0,
+    })
+}
+
+/// Per cell of the evidence grid, the distance to the nearest cell not seen free: one no ray
+/// has crossed yet, or one where rays ended (an obstacle, whether the Gaussians show it yet
+/// or not).
+struct UnfreeDistance<'a> {
     grid: &'a ClassGrid,
     distance: Vec<f64>,
 }
 
-impl<'a> UnseenDistance<'a> {
+impl<'a> UnfreeDistance<'a> {
     fn new(grid: &'a ClassGrid) -> Self {
-        let seen: Vec<bool> = grid
-            .classes
-            .iter()
-            .map(|c| *c != CellClass::Unknown)
-            .collect();
-        UnseenDistance {
+        let free: Vec<bool> = grid.classes.iter().map(|c| *c == CellClass::Free).collect();
+        UnfreeDistance {
             grid,
-            distance: crate::explore::frontier::clearance(grid, &seen),
+            distance: crate::explore::frontier::clearance(grid, &free),
         }
     }
 
     /// How many of `t`'s segments, from its start, have every sample point (10 cm apart)
-    /// `radius` from unseen cells; points within the footprint of `start` pass (the robot
-    /// stands there), points off the grid fail.
+    /// `radius` from cells not seen free; points within the footprint of `start` need only be
+    /// as far as `start` is (the robot stands there), points off the grid fail.
     fn clear_segments(
         &self,
         t: &search::Trajectory,
@@ -533,16 +628,28 @@ impl<'a> UnseenDistance<'a> {
         radius: f64,
         start: Pose2,
     ) -> usize {
+        let distance = |x: f64, y: f64| self.grid.cell_of([x, y]).map(|c| self.distance[c]);
+        // Within its footprint the robot may stay as near as it stands, not come nearer: a
+        // short arc (0.3 m) lies wholly inside it, and passed unchecked into a table the
+        // Gaussians had a hole in (apartment, 41 s).
+        let standing = distance(start.x, start.y).unwrap_or(0.0).min(radius);
         t.controls
             .iter()
             .zip(&t.states)
             .take_while(|(u, s)| {
-                search::segment_points(s, u, period, 0.1).iter().all(|p| {
-                    (p.x - start.x).hypot(p.y - start.y) <= FOOTPRINT
-                        || self
-                            .grid
-                            .cell_of([p.x, p.y])
-                            .is_some_and(|c| self.distance[c] >= radius)
+                let points = search::segment_points(s, u, period, 0.1);
+                let last = points.len().saturating_sub(1);
+                points.iter().enumerate().all(|(k, p)| {
+                    let within = (p.x - start.x).hypot(p.y - start.y) <= FOOTPRINT;
+                    // A straight drive sweeps the wheels' half width; a turn, and any pose a
+                    // turn may start from (a segment's end), the corner radius.
+                    let sweep = if u.w == 0.0 && k != last {
+                        STRAIGHT_CLEARANCE.min(radius)
+                    } else {
+                        radius
+                    };
+                    let need = if within { standing.min(sweep) } else { sweep };
+                    distance(p.x, p.y).is_some_and(|d| d >= need) || (within && standing == 0.0)
                 })
             })
             .count()
@@ -593,6 +700,7 @@ impl RtGuidePlanner {
                 .chain(&self.set_aside_frontiers)
                 .any(|k| (k[0] - c[0]).hypot(k[1] - c[1]) < CLEARED_FRONTIER_RADIUS);
             if skipped {
+                tracing::trace!("frontier at {c:.2?}: cleared or set aside before");
                 continue;
             }
             // The goals nearest the frontier first; at most FRONTIER_GOAL_CHECKS of them,
@@ -611,9 +719,15 @@ impl RtGuidePlanner {
                 .find(|(_, hit)| !hit)
                 .map(|(p, _)| *p)
             else {
+                tracing::trace!(
+                    "frontier at {c:.2?} ({} cells): none of {} goals near it is clear",
+                    cluster.cells.len(),
+                    tried.len()
+                );
                 continue;
             };
             if (p[0] - robot.x).hypot(p[1] - robot.y) < cfg.min_viewpoint_distance {
+                tracing::trace!("frontier at {c:.2?}: its viewpoint {p:.2?} is at the robot");
                 continue;
             }
             let length = cluster.cells.len() as f64 * view.grid.cell;
@@ -806,11 +920,13 @@ mod tests {
         let offer = probe.frontier_offers[0].0;
         // The robot 1.1 m short of it, the graph's node at the robot 0.9 m on, 0.2 m short of
         // the viewpoint: the viewpoint is offered (over 1 m from the robot) but lies within
-        // 1 m of the plan's source node through the graph, so it cannot be chosen.
+        // 1 m of the plan's source node through the graph, so it cannot be chosen. The robot
+        // faces down the corridor (its walls are in the evidence grid only, which the
+        // candidates keep clear of but the search does not know).
         let robot = Pose2 {
             x: offer[0],
             y: offer[1] - 1.1,
-            theta: 0.0,
+            theta: -std::f64::consts::FRAC_PI_2,
         };
         let mut planner = frontiers_first_planner(&grid, true);
         planner
@@ -824,6 +940,51 @@ mod tests {
         // The target is one of the block's viewpoints, 3 m east of the origin.
         let target = plan.guidance.last().copied().expect("guidance");
         assert!(target[1] < 6.0, "{target:?}");
+    }
+
+    #[test]
+    fn a_frontier_reached_facing_away_is_cleared_after_a_turn_to_face_it() {
+        let (grid, map) = room_with_a_corridor();
+        let far = Pose2 {
+            x: 0.0,
+            y: 8.0,
+            theta: 0.0,
+        };
+        let mut planner = frontiers_first_planner(&grid, true);
+        let plan = planner.plan(&map, far).expect("a plan");
+        let (offer, anchor) = planner.frontier_offers[0];
+        assert_eq!(
+            plan.guidance.last(),
+            Some(&offer),
+            "the frontier is the target"
+        );
+        // The robot arrives at the viewpoint with its back to the frontier.
+        let away = (offer[1] - anchor[1]).atan2(offer[0] - anchor[0]);
+        let arrived = Pose2 {
+            x: offer[0],
+            y: offer[1],
+            theta: away,
+        };
+        let plan = planner.plan(&map, arrived).expect("a turn");
+        assert!(plan.controls.iter().all(|u| u.v == 0.0 && u.w != 0.0));
+        let end = plan.states[plan.states.len() - 1];
+        let bearing = (anchor[1] - end.y).atan2(anchor[0] - end.x);
+        assert!(crate::drive::wrap_angle(bearing - end.theta).abs() < 1e-9);
+        assert_eq!(planner.cleared_frontiers, vec![anchor]);
+        // A plan later, halfway round, the turn goes on; facing it, the planner moves on.
+        let halfway = Pose2 {
+            theta: plan.states[1].theta,
+            ..arrived
+        };
+        let rest = planner.plan(&map, halfway).expect("the rest of the turn");
+        assert!(rest.controls.iter().all(|u| u.v == 0.0));
+        assert_eq!(rest.controls.len(), plan.controls.len() - 1);
+        let facing = Pose2 {
+            theta: end.theta,
+            ..arrived
+        };
+        let _ = planner.plan(&map, facing);
+        assert_eq!(planner.look_at, None);
     }
 
     #[test]
@@ -953,19 +1114,115 @@ mod tests {
     }
 
     #[test]
-    fn candidates_keep_the_radius_from_unseen_cells_as_a_brute_force_scan_says() {
-        // 5 x 3 m seen, with an unseen 1 x 1 m block at x in [3, 4], y in [1, 2].
+    fn a_look_at_a_reached_frontier_turns_in_place_until_it_faces_it() {
+        let search = SearchConfig::default();
+        let half_width = 0.5;
+        let robot = Pose2 {
+            x: 1.0,
+            y: 2.0,
+            theta: 0.3,
+        };
+        // Anchors all round the robot, every 10 degrees.
+        for k in 0..36 {
+            let a = std::f64::consts::TAU * k as f64 / 36.0;
+            let anchor = [robot.x + 2.0 * a.cos(), robot.y + 2.0 * a.sin()];
+            let off_axis = crate::drive::wrap_angle(a - robot.theta).abs();
+            let Some(turn) = look_toward(robot, anchor, half_width, &search) else {
+                assert!(off_axis <= LOOK_FRACTION * half_width + 1e-9, "k = {k}");
+                continue;
+            };
+            assert!(off_axis > LOOK_FRACTION * half_width, "k = {k}");
+            // In place, within the drive's limits, one primitive period a segment.
+            assert_eq!(turn.states.len(), turn.controls.len() + 1);
+            for u in &turn.controls {
+                assert_eq!(u.v, 0.0);
+                assert!(u.w.abs() <= 0.9 + 1e-12, "w {}", u.w);
+            }
+            // Stepping the controls by the exact unicycle ends facing the anchor, where it
+            // stood; the fewest segments that could.
+            let mut s = robot;
+            for u in &turn.controls {
+                s = crate::drive::advance(&s, u, search.primitives.duration);
+            }
+            assert!((s.x - robot.x).abs() < 1e-12 && (s.y - robot.y).abs() < 1e-12);
+            let facing = crate::drive::wrap_angle(a - s.theta).abs();
+            assert!(facing < 1e-9, "k = {k}: {facing}");
+            assert_eq!(
+                turn.controls.len(),
+                (off_axis / 0.9).ceil() as usize,
+                "k = {k}"
+            );
+            assert_eq!(turn.states.last(), Some(&s));
+        }
+    }
+
+    #[test]
+    fn within_its_footprint_the_robot_may_not_come_nearer_to_cells_not_seen_free() {
+        // Free floor with an occupied block at x in [3, 4], y in [1, 2]; the robot 0.4 m
+        // west of it. Every move below stays inside the robot's footprint (0.3 m).
         let (w, h) = (100, 60);
         let mut g = ClassGrid::filled([w, h], [0.0, 0.0], 0.05, CellClass::Free);
         for c in 0..g.len() {
             let (x, y) = (c % w, c / w);
             if (60..80).contains(&x) && (20..40).contains(&y) {
+                g.classes[c] = CellClass::Occupied;
+            }
+        }
+        let distance = UnfreeDistance::new(&g);
+        let start = Pose2 {
+            x: 2.6,
+            y: 1.5,
+            theta: 0.0,
+        };
+        let step = |v: f64, w: f64| {
+            let u = UnicycleCommand { v, w };
+            search::Trajectory {
+                controls: vec![u],
+                states: vec![start, crate::drive::advance(&start, &u, 1.0)],
+                cost: 0.0,
+                distance_to_goal: 0.0,
+            }
+        };
+        let clear = |t: &search::Trajectory| distance.clear_segments(t, 1.0, 0.33, start);
+        // 0.25 m on toward the block: inside the footprint, but nearer than it stands.
+        assert_eq!(clear(&step(0.25, 0.0)), 0);
+        // Turning in place, or an arc that keeps its distance, stays as near as it was.
+        assert_eq!(clear(&step(0.0, 0.9)), 1);
+        // Away from the block.
+        let mut back = step(0.25, 0.0);
+        back.states = vec![
+            Pose2 {
+                theta: std::f64::consts::PI,
+                ..start
+            },
+            Pose2 {
+                x: start.x - 0.25,
+                theta: std::f64::consts::PI,
+                ..start
+            },
+        ];
+        assert_eq!(distance.clear_segments(&back, 1.0, 0.33, back.states[0]), 1);
+    }
+
+    #[test]
+    fn candidates_keep_the_radius_from_cells_not_seen_free_as_a_brute_force_scan_says() {
+        // 5 x 3 m seen free, with a 1 x 1 m block at x in [3, 4], y in [1, 2]: its west half
+        // occupied (where depth rays ended; the drive east into it stops there too), its
+        // east half unseen.
+        let (w, h) = (100, 60);
+        let mut g = ClassGrid::filled([w, h], [0.0, 0.0], 0.05, CellClass::Free);
+        for c in 0..g.len() {
+            let (x, y) = (c % w, c / w);
+            if (60..70).contains(&x) && (20..40).contains(&y) {
+                g.classes[c] = CellClass::Occupied;
+            }
+            if (70..80).contains(&x) && (20..40).contains(&y) {
                 g.classes[c] = CellClass::Unknown;
             }
         }
-        let unseen = UnseenDistance::new(&g);
+        let unseen = UnfreeDistance::new(&g);
         let cells: Vec<[f64; 2]> = (0..g.len())
-            .filter(|c| g.classes[*c] == CellClass::Unknown)
+            .filter(|c| g.classes[*c] != CellClass::Free)
             .map(|c| g.centre(c))
             .collect();
         // Brute force: per segment, the nearest unseen cell centre to any point of it; beyond
@@ -1003,7 +1260,7 @@ mod tests {
                 assert_eq!(
                     unseen.clear_segments(&t, 1.0, 0.35, start),
                     expected,
-                    "y = {y}: nearest unseen cell per segment {d:.3?} m"
+                    "y = {y}: nearest cell not free per segment {d:.3?} m"
                 );
                 partial += usize::from(expected > 0 && expected < 8);
             }
