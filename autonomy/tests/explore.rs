@@ -186,6 +186,29 @@ fn with_a_low_free_height_a_ray_over_a_table_clears_only_below_it() {
     assert_eq!(agslam.class([3.025, 0.025]), CellClass::Occupied);
 }
 
+#[test]
+fn with_a_free_range_a_long_ray_clears_only_near_the_camera_and_still_marks_its_wall() {
+    // A level ray 5 m to a wall point: with free evidence to 3 m only, the cells up to 3 m
+    // are free, those from 3 m to the wall stay unseen (a frontier at 3 m), the wall is hit.
+    let mut grid = EvidenceGrid::new(EvidenceConfig {
+        free_range: 3.0,
+        ..EvidenceConfig::default()
+    });
+    grid.integrate_ray(Point3::new(0.0, 0.025, 0.4), Point3::new(5.0, 0.025, 0.4));
+    for k in 0..100 {
+        let x = 0.025 + 0.05 * k as f64;
+        let expected = if x < 3.0 - 0.05 {
+            CellClass::Free
+        } else if x > 3.0 + 0.05 {
+            CellClass::Unknown
+        } else {
+            continue;
+        };
+        assert_eq!(grid.class([x, 0.025]), expected, "x = {x}");
+    }
+    assert_eq!(grid.class([5.025, 0.025]), CellClass::Occupied);
+}
+
 fn mount(width: u32, height: u32) -> CameraMount {
     CameraMount {
         intrinsics: Intrinsics::from_fovy(60f64.to_radians(), width, height),

@@ -24,6 +24,9 @@ pub struct EvidenceConfig {
     pub free_height: f64,
     /// Rays count up to this range, metres.
     pub max_range: f64,
+    /// Free evidence only this near the camera, metres (up to `max_range`): space seen from
+    /// further is not yet seen well enough to map, so its edge stays a frontier.
+    pub free_range: f64,
     /// One ray per `pixel_stride` pixels in each direction.
     pub pixel_stride: usize,
     /// More Gaussian means in a cell than this remove it from free space...
@@ -40,6 +43,7 @@ impl Default for EvidenceConfig {
             max_height: 1.3,
             free_height: 1.3,
             max_range: 7.0,
+            free_range: 7.0,
             pixel_stride: 4,
             gaussians_unfree: 25,
             gaussians_occupied: 50,
@@ -286,6 +290,7 @@ impl EvidenceGrid {
         } else {
             (0.0, t_end)
         };
+        let t_free = t_free.min(c.free_range / length);
         let a = [origin.x, origin.y];
         let b = [
             origin.x + t_end * (end.x - origin.x),

@@ -119,6 +119,12 @@ const LOOK_FRACTION: f64 = 0.5;
 /// Most plans in a row a look at a reached frontier may take (half a turn is 4 at 0.9 rad/s);
 /// a robot that does not turn gives up on it.
 const MAX_LOOK_PLANS: usize = 5;
+/// RT-GuIDE's evidence grid takes space for seen only this near the camera, metres. Rays
+/// reach 5 m, but what is seen only from that far is mapped sparsely: with free space to the
+/// rays' end, a room seen through its door had no frontier, was never entered and its
+/// furniture never mapped (apartment_02: 71.6% against the survey's 78.4%; 78.2% at 3 m). The
+/// frontier now stays at the edge of what was seen from near, as the survey's look-arounds do.
+const FREE_RANGE: f64 = 3.0;
 /// A frontier whose cell nearest its centroid is this near a cleared one's is not offered
 /// again, metres (FBE's blacklist radius).
 const CLEARED_FRONTIER_RADIUS: f64 = 0.5;
@@ -234,6 +240,7 @@ impl RtGuidePlanner {
                 f64::from(config.collision.centre_height + config.collision.robot_radius);
             EvidenceGrid::new(EvidenceConfig {
                 free_height: body_top,
+                free_range: FREE_RANGE,
                 ..EvidenceConfig::default()
             })
         });
