@@ -209,6 +209,64 @@ fn with_a_free_range_a_long_ray_clears_only_near_the_camera_and_still_marks_its_
     assert_eq!(grid.class([5.025, 0.025]), CellClass::Occupied);
 }
 
+#[test]
+fn free_evidence_comes_only_from_where_a_ray_is_within_the_height_band() {
+    // Rays along one row of cells, falling to the floor, rising over the band, level below,
+    // within and above it: each cell is free exactly where a brute-force walk along the ray
+    // (1 mm steps) is within [free_from_height, free_height], unseen where it never is. A ray
+    // sliding under an overhang at floor height (a ball's lower half) clears nothing.
+    let config = EvidenceConfig {
+        free_from_height: 0.1,
+        free_height: 0.6,
+        ..EvidenceConfig::default()
+    };
+    let rays = [
+        ([0.0, 0.4], [4.0, 0.0]),
+        ([0.0, 0.4], [4.0, 1.2]),
+        ([0.0, 0.05], [3.0, 0.0]),
+        ([0.0, 0.05], [3.0, 0.3]),
+        ([0.0, 0.3], [2.5, 0.3]),
+        ([0.0, 0.8], [2.5, 0.8]),
+        ([0.0, 0.8], [4.0, -0.2]),
+    ];
+    let margin = 0.005;
+    for (from, to) in rays {
+        let mut grid = EvidenceGrid::new(config);
+        let (origin, end) = (
+            Point3::new(0.0, 0.025, from[1]),
+            Point3::new(to[0], 0.025, to[1]),
+        );
+        grid.integrate_ray(origin, end);
+        let cells = (to[0] / 0.05).floor() as usize;
+        let mut checked = 0;
+        for k in 0..cells {
+            let heights: Vec<f64> = (0..=50)
+                .map(|i| 0.05 * k as f64 + 0.001 * i as f64)
+                .map(|x| from[1] + (to[1] - from[1]) * x / to[0])
+                .collect();
+            let within = |lo: f64, hi: f64| heights.iter().any(|&z| z >= lo && z <= hi);
+            let expected = if within(0.1 + margin, 0.6 - margin) {
+                CellClass::Free
+            } else if !within(0.1 - margin, 0.6 + margin) {
+                CellClass::Unknown
+            } else {
+                continue;
+            };
+            checked += 1;
+            let x = 0.025 + 0.05 * k as f64;
+            assert_eq!(
+                grid.class([x, 0.025]),
+                expected,
+                "ray {from:?} -> {to:?}, x = {x}"
+            );
+        }
+        assert!(
+            checked + 4 >= cells,
+            "ray {from:?} -> {to:?}: {checked} of {cells}"
+        );
+    }
+}
+
 fn mount(width: u32, height: u32) -> CameraMount {
     CameraMount {
         intrinsics: Intrinsics::from_fovy(60f64.to_radians(), width, height),

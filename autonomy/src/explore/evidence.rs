@@ -22,6 +22,11 @@ pub struct EvidenceConfig {
     /// table's unseen side for floor: apartment, 57 s), and a table top's Gaussians are no
     /// wall to a robot that fits under it (apartment_01: stuck under a table for 46 s).
     pub free_height: f64,
+    /// Rays add free evidence only above this height, metres (no limit by default). A ray
+    /// that slides under an overhang near the floor (a ball's lower half) proves nothing at
+    /// the body's height: office_03's RT-GuIDE took the unseen side of a ball, crossed by
+    /// rays at 2-10 cm, for floor and touched it with a wheel.
+    pub free_from_height: f64,
     /// Rays count up to this range, metres.
     pub max_range: f64,
     /// Free evidence only this near the camera, metres (up to `max_range`): space seen from
@@ -42,6 +47,7 @@ impl Default for EvidenceConfig {
             min_height: 0.1,
             max_height: 1.3,
             free_height: 1.3,
+            free_from_height: f64::NEG_INFINITY,
             max_range: 7.0,
             free_range: 7.0,
             pixel_stride: 4,
@@ -276,20 +282,10 @@ impl EvidenceGrid {
             t_end = t_end.min((c.max_height - origin.z) / dz);
         }
         let hit = t_end >= 1.0 && end.z >= c.min_height && end.z <= c.max_height;
-        // Free evidence only where the ray is below `free_height` (the hit counts anyway):
-        // from where a falling ray comes under it, to where a rising one goes over it.
-        let crossing = (c.free_height - origin.z) / dz;
-        let (t_from, t_free) = if origin.z > c.free_height {
-            if dz < 0.0 {
-                (crossing.min(t_end), t_end)
-            } else {
-                (t_end, t_end)
-            }
-        } else if end.z > c.free_height && dz > 0.0 {
-            (0.0, t_end.min(crossing))
-        } else {
-            (0.0, t_end)
-        };
+        // Free evidence only where the ray is between `free_from_height` and `free_height`
+        // (the hit counts anyway).
+        let (t_from, t_free) =
+            band_interval(origin.z, dz, c.free_from_height, c.free_height, t_end);
         let t_free = t_free.min(c.free_range / length);
         let a = [origin.x, origin.y];
         let b = [
@@ -409,6 +405,21 @@ impl EvidenceGrid {
             classes: (0..self.free.len()).map(|i| self.class_at(i)).collect(),
         }
     }
+}
+
+/// The part `[from, to]` of `[0, t_end]` where the height `z0 + t dz` lies within `[low, high]`
+/// (an empty interval has `to <= from`).
+fn band_interval(z0: f64, dz: f64, low: f64, high: f64, t_end: f64) -> (f64, f64) {
+    if dz == 0.0 {
+        return if (low..=high).contains(&z0) {
+            (0.0, t_end)
+        } else {
+            (t_end, t_end)
+        };
+    }
+    let (a, b) = ((low - z0) / dz, (high - z0) / dz);
+    let (lo, hi) = if a < b { (a, b) } else { (b, a) };
+    (lo.max(0.0), hi.min(t_end))
 }
 
 /// The lattice cells a 2D segment crosses, in order (Amanatides and Woo's traversal).

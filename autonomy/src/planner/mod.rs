@@ -238,10 +238,12 @@ impl RtGuidePlanner {
             // sphere's top say nothing about it, and Gaussians above it do not block it.
             let body_top =
                 f64::from(config.collision.centre_height + config.collision.robot_radius);
+            let defaults = EvidenceConfig::default();
             EvidenceGrid::new(EvidenceConfig {
                 free_height: body_top,
+                free_from_height: defaults.min_height,
                 free_range: FREE_RANGE,
-                ..EvidenceConfig::default()
+                ..defaults
             })
         });
         let tally = Tally::new(config.region_size);
