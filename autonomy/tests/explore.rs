@@ -267,6 +267,111 @@ fn free_evidence_comes_only_from_where_a_ray_is_within_the_height_band() {
     }
 }
 
+#[test]
+fn with_height_slices_a_cell_is_free_only_once_rays_crossed_it_at_every_height() {
+    // A camera 0.4 m up looks along one row of cells at a 0.55 m box (x 1.5-1.7 m) before a
+    // wall at 4 m: a fan of rays to the floor, the box and the wall. Each cell's class is
+    // checked against a brute-force walk (0.1 mm steps) that marks the slice of every height
+    // a free ray passes: free exactly when all four slices of 0.1-0.4 m are marked. The box's
+    // far side, crossed only by rays over its top, is unseen with slices and free without.
+    let config = EvidenceConfig {
+        free_from_height: 0.1,
+        free_height: 0.6,
+        height_slices: 4,
+        slices_top: 0.4,
+        ..EvidenceConfig::default()
+    };
+    let origin = Point3::new(0.0, 0.025, 0.4);
+    let ends: Vec<Point3> = (0..=120)
+        .map(|k| {
+            // A level direction at angle a below (+) or above (-) the horizon.
+            let a = (-25.0 + 0.5 * k as f64).to_radians();
+            let slope = -a.tan();
+            let floor = if slope < 0.0 {
+                0.4 / -slope
+            } else {
+                f64::INFINITY
+            };
+            let x_box = 1.5;
+            let z_box = 0.4 + slope * x_box;
+            let x = if (0.0..=0.55).contains(&z_box) && floor > x_box {
+                x_box
+            } else {
+                floor.min(4.0)
+            };
+            Point3::new(x, 0.025, 0.4 + slope * x)
+        })
+        .collect();
+    let mut sliced = EvidenceGrid::new(config);
+    let mut plain = EvidenceGrid::new(EvidenceConfig {
+        height_slices: 0,
+        ..config
+    });
+    for end in &ends {
+        sliced.integrate_ray(origin, *end);
+        plain.integrate_ray(origin, *end);
+    }
+    let cells = 80usize;
+    let mut marked = vec![0u32; cells];
+    let mut hit_cells = vec![false; cells];
+    for end in &ends {
+        let hit = end.z >= config.min_height && end.z <= config.max_height;
+        let end_cell = (end.x / 0.05).floor() as usize;
+        if hit && end_cell < cells {
+            hit_cells[end_cell] = true;
+        }
+        let steps = (end.x / 1e-4) as usize;
+        for i in 0..steps {
+            let x = i as f64 * 1e-4;
+            let z = origin.z + (end.z - origin.z) * x / end.x;
+            let c = (x / 0.05).floor() as usize;
+            if (hit && c == end_cell) || !(0.1..=0.6).contains(&z) || c >= cells {
+                continue;
+            }
+            if z <= 0.4 {
+                marked[c] |= 1 << (((z - 0.1) / 0.075).floor() as u32).min(3);
+            }
+        }
+    }
+    let mut free = 0;
+    for (c, &mask) in marked.iter().enumerate() {
+        if hit_cells[c] {
+            continue;
+        }
+        let x = 0.025 + 0.05 * c as f64;
+        let expected = if mask == 0b1111 {
+            free += 1;
+            CellClass::Free
+        } else {
+            CellClass::Unknown
+        };
+        assert_eq!(
+            sliced.class([x, 0.025]),
+            expected,
+            "x = {x}, slices {mask:04b}"
+        );
+    }
+    assert!(free > 20, "{free} free cells");
+    // One slice (RT-GuIDE's): free where a ray crossed below the camera; the box's far side
+    // is still unseen, the floor before it free as without slices.
+    let mut one = EvidenceGrid::new(EvidenceConfig {
+        height_slices: 1,
+        ..config
+    });
+    for end in &ends {
+        one.integrate_ray(origin, *end);
+    }
+    for x in [1.775, 1.825, 1.875] {
+        assert_eq!(sliced.class([x, 0.025]), CellClass::Unknown, "x = {x}");
+        assert_eq!(one.class([x, 0.025]), CellClass::Unknown, "x = {x}");
+        assert_eq!(plain.class([x, 0.025]), CellClass::Free, "x = {x}");
+    }
+    for x in [0.775, 1.025, 1.275] {
+        assert_eq!(one.class([x, 0.025]), CellClass::Free, "x = {x}");
+        assert_eq!(plain.class([x, 0.025]), CellClass::Free, "x = {x}");
+    }
+}
+
 fn mount(width: u32, height: u32) -> CameraMount {
     CameraMount {
         intrinsics: Intrinsics::from_fovy(60f64.to_radians(), width, height),

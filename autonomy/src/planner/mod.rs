@@ -112,6 +112,13 @@ const UNSEEN_UNCERTAINTY: f64 = 0.5;
 const UNFREE_CLEARANCE: f64 = 0.33;
 /// ... along a straight drive: the wheels' outer half width (0.245 m) and a little.
 const STRAIGHT_CLEARANCE: f64 = 0.27;
+
+/// Height slices of the evidence grid's free space, from 0.1 m to the camera: a cell is free
+/// once a ray has crossed it below the camera. A ray over the top of something taller than
+/// the camera proves nothing below it (office_02's 0.55 m cylinder); what is lower shows its
+/// top, whose hits mark its cells. One slice: more would ask for low rays near the robot,
+/// where the camera cannot see the floor (office_03 with 4: stuck at the spawn).
+const HEIGHT_SLICES: u32 = 1;
 /// A frontier target reached with its anchor more than this fraction of the image's half
 /// width off the optical axis gets a turn to face it first (at the edge of the image its
 /// depth rays are the fewest).
@@ -242,6 +249,8 @@ impl RtGuidePlanner {
             EvidenceGrid::new(EvidenceConfig {
                 free_height: body_top,
                 free_from_height: defaults.min_height,
+                height_slices: HEIGHT_SLICES,
+                slices_top: config.mount.height,
                 free_range: FREE_RANGE,
                 ..defaults
             })
