@@ -172,6 +172,8 @@ pub struct EvidenceGrid {
     free: Vec<u32>,
     /// Per cell, a bit per height slice a free ray has crossed it in (with `height_slices`).
     slices: Vec<u32>,
+    /// The height slices, derived once from the config (`None` without `height_slices`).
+    slicing: Option<Slicing>,
     occupied: Vec<u32>,
     gaussians: Vec<u32>,
 }
@@ -182,8 +184,10 @@ const GROW_MARGIN: i64 = 80;
 impl EvidenceGrid {
     /// An empty grid.
     pub fn new(config: EvidenceConfig) -> Self {
+        let slicing = Slicing::of(&config);
         EvidenceGrid {
             config,
+            slicing,
             origin: [0, 0],
             size: [0, 0],
             free: Vec::new(),
@@ -324,12 +328,11 @@ impl EvidenceGrid {
         if t_free > t_from {
             traverse(along(t_from), along(t_free), self.config.cell, &mut cells);
         }
-        let slicing = self.slicing();
         for l in cells {
             let i = self.index(l);
             if !(hit && i == end_cell) {
                 self.free[i] += 1;
-                if let Some(slicing) = &slicing {
+                if let Some(slicing) = &self.slicing {
                     let (t0, t1) = cell_interval(l, self.config.cell, origin, end);
                     let (t0, t1) = (t0.max(t_from), t1.min(t_free));
                     if t1 >= t0 {
@@ -393,21 +396,9 @@ impl EvidenceGrid {
         }
     }
 
-    /// The height slices of free space, when the grid keeps them.
-    fn slicing(&self) -> Option<Slicing> {
-        let c = &self.config;
-        (c.height_slices > 0).then(|| {
-            let low = c.free_from_height.max(c.min_height);
-            Slicing {
-                low,
-                height: (c.slices_top - low) / f64::from(c.height_slices),
-                count: c.height_slices.min(32),
-            }
-        })
-    }
-
     fn all_slices_seen(&self, i: usize) -> bool {
-        self.slicing()
+        self.slicing
+            .as_ref()
             .is_none_or(|s| self.slices[i] & s.full() == s.full())
     }
 
@@ -451,6 +442,7 @@ impl EvidenceGrid {
 }
 
 /// Equal height slices of the free band.
+#[derive(Debug, Clone)]
 struct Slicing {
     low: f64,
     height: f64,
@@ -458,6 +450,18 @@ struct Slicing {
 }
 
 impl Slicing {
+    /// The slices a config asks for, when it asks for any.
+    fn of(c: &EvidenceConfig) -> Option<Self> {
+        (c.height_slices > 0).then(|| {
+            let low = c.free_from_height.max(c.min_height);
+            Slicing {
+                low,
+                height: (c.slices_top - low) / f64::from(c.height_slices),
+                count: c.height_slices.min(32),
+            }
+        })
+    }
+
     /// Every slice's bit.
     fn full(&self) -> u32 {
         if self.count >= 32 {
