@@ -11,7 +11,7 @@ use crate::mujoco::Data;
 use crate::robot::Pose2;
 use crate::world::World;
 use autonomy::map::GaussianMap;
-use autonomy::metrics::{coverage, psnr, ssim};
+use autonomy::metrics::{coverage, covered, psnr, ssim};
 use autonomy::splat::Rasteriser;
 use nalgebra::{Point3, Vector3};
 use rand::{Rng, SeedableRng};
@@ -135,6 +135,12 @@ impl TestSet {
         }
         Ok(TestSet { poses, surface })
     }
+}
+
+/// For each of the test set's surface points, whether the map has a Gaussian mean within
+/// the coverage radius: where the map is missing, for comparing two maps point by point.
+pub fn covered_surface(tests: &TestSet, map: &GaussianMap) -> Vec<bool> {
+    covered(&tests.surface, &map.gaussians.means, COVERAGE_RADIUS)
 }
 
 /// A fresh state of the world's model, for rendering and ray casting away from the episode.

@@ -429,7 +429,12 @@ struct EvalArgs {
     /// Also write the scores to this JSON file (new, unless --overwrite).
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Replace --out if it exists (never the map itself).
+    /// Also write every surface point the coverage is measured on to this CSV (x,y,z,covered;
+    /// new, unless --overwrite): where the map is missing. Two maps evaluated with the same
+    /// world, seed and camera list the same points in the same order, so rows compare.
+    #[arg(long)]
+    surface_out: Option<PathBuf>,
+    /// Replace --out and --surface-out if they exist (never the map itself).
     #[arg(long)]
     overwrite: bool,
 }
@@ -1027,7 +1032,7 @@ fn default_python(binary: &std::path::Path) -> PathBuf {
 }
 
 fn run_eval(args: EvalArgs) -> Result<()> {
-    if let Some(out) = &args.out {
+    for out in [&args.out, &args.surface_out].into_iter().flatten() {
         splatloop::dataset::refuse_overwrite(out, args.overwrite, &[&args.map, &args.world])?;
     }
     let sensor = SensorConfig {
@@ -1035,7 +1040,7 @@ fn run_eval(args: EvalArgs) -> Result<()> {
         height: args.view.height,
         ..SensorConfig::default()
     };
-    let evaluation = splatloop::novel_view::evaluate_map(
+    let (evaluation, surface) = splatloop::novel_view::evaluate_map_surface(
         &args.map,
         &args.world,
         &sensor,
@@ -1049,6 +1054,14 @@ fn run_eval(args: EvalArgs) -> Result<()> {
         let text = serde_json::to_string_pretty(&evaluation)?;
         std::fs::write(out, text + "\n")
             .with_context(|| format!("cannot write {}", out.display()))?;
+    }
+    if let Some(out) = &args.surface_out {
+        let mut text = String::from("x,y,z,covered\n");
+        for p in &surface {
+            let [x, y, z] = p.position;
+            text += &format!("{x},{y},{z},{}\n", u8::from(p.covered));
+        }
+        std::fs::write(out, text).with_context(|| format!("cannot write {}", out.display()))?;
     }
     Ok(())
 }

@@ -7,7 +7,7 @@ use crate::camera::{RgbdFrame, SensorConfig};
 use crate::dataset::{read_trajectory, CameraFile, DatasetWriter};
 use crate::egl::EglContext;
 use crate::error::{Result, SimError};
-use crate::evaluate::{evaluate, Evaluation, TestSet};
+use crate::evaluate::{covered_surface, evaluate, Evaluation, TestSet};
 use crate::world::World;
 use autonomy::camera::PinholeCamera;
 use autonomy::splat::{EngineChoice, Rasteriser};
@@ -131,6 +131,28 @@ pub fn evaluate_map(
     seed: u64,
     engine: EngineChoice,
 ) -> Result<Evaluation> {
+    evaluate_map_surface(map_path, world_path, sensor, views, seed, engine).map(|(e, _)| e)
+}
+
+/// A test-set surface point and whether the map covers it (`splatloop eval --surface-out`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfacePoint {
+    /// World position, metres.
+    pub position: [f32; 3],
+    /// A Gaussian mean lies within the coverage radius.
+    pub covered: bool,
+}
+
+/// [`evaluate_map`] and, point by point, the surface its coverage is measured on: two maps
+/// evaluated with the same world, seed and camera list the same points in the same order.
+pub fn evaluate_map_surface(
+    map_path: &Path,
+    world_path: &Path,
+    sensor: &SensorConfig,
+    views: usize,
+    seed: u64,
+    engine: EngineChoice,
+) -> Result<(Evaluation, Vec<SurfacePoint>)> {
     let map = read_map(map_path)?;
     let world = World::load(world_path, sensor)?;
     let gl = EglContext::new()?;
@@ -142,11 +164,21 @@ pub fn evaluate_map(
         crate::episode::test_seed(seed),
         sensor.max_range,
     )?;
-    evaluate(
+    let evaluation = evaluate(
         &world,
         &mut camera,
         &Rasteriser::select(engine),
         &map,
         &tests,
-    )
+    )?;
+    let surface = tests
+        .surface
+        .iter()
+        .zip(covered_surface(&tests, &map))
+        .map(|(p, covered)| SurfacePoint {
+            position: *p,
+            covered,
+        })
+        .collect();
+    Ok((evaluation, surface))
 }

@@ -9,7 +9,7 @@ use splatloop::camera::SensorConfig;
 use splatloop::dataset::Dataset;
 use splatloop::episode::{run_episode, PlannerKind};
 use splatloop::evaluate::{evaluate, TestSet};
-use splatloop::novel_view::{evaluate_map, render_map, RenderConfig};
+use splatloop::novel_view::{evaluate_map_surface, render_map, RenderConfig};
 
 #[test]
 fn smoke_episode_explores_without_collisions_and_repeats_exactly() {
@@ -105,7 +105,7 @@ fn smoke_episode_explores_without_collisions_and_repeats_exactly() {
 
     // `splatloop eval` on the saved map rebuilds the episode's test set and its scores (the PLY
     // stores colours through f_dc in float32, so not bit for bit).
-    let again = evaluate_map(
+    let (again, surface) = evaluate_map_surface(
         &dir.path().join("a").join("map.ply"),
         &repo_path("worlds/room.xml"),
         &SensorConfig::default(),
@@ -115,6 +115,25 @@ fn smoke_episode_explores_without_collisions_and_repeats_exactly() {
     )
     .expect("eval");
     assert_eq!(again.surface_points, first.evaluation.surface_points);
+    // Point by point (`eval --surface-out`): the covered share is the coverage, and each
+    // point's flag is a brute-force search of the map's means.
+    assert_eq!(surface.len(), again.surface_points);
+    let share = surface.iter().filter(|p| p.covered).count() as f64 / surface.len() as f64;
+    assert!(
+        (share - again.coverage).abs() < 1e-12,
+        "{share} vs {again:?}"
+    );
+    assert!(
+        share > 0.05 && share < 0.999,
+        "{share}: both kinds of point"
+    );
+    for p in surface.iter().step_by(37) {
+        let near =
+            map.gaussians.means.iter().any(|m| {
+                (0..3).map(|k| (m[k] - p.position[k]).powi(2)).sum::<f32>() <= 0.05f32 * 0.05
+            });
+        assert_eq!(p.covered, near, "{p:?}");
+    }
     assert!(
         (again.psnr - first.evaluation.psnr).abs() < 1e-3,
         "{again:?}"

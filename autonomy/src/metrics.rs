@@ -58,12 +58,22 @@ pub fn ssim(a: &[f32], b: &[f32], width: usize, height: usize) -> f64 {
 }
 
 /// Fraction of `surface` points with a Gaussian mean within `radius` (DESIGN.md's coverage,
-/// radius 5 cm). Means are filed in a hash of cubes of side `radius`, so each point looks at
-/// 27 cells: linear in points plus means.
+/// radius 5 cm): the share of [`covered`] that is true.
 pub fn coverage(surface: &[[f32; 3]], means: &[[f32; 3]], radius: f32) -> f64 {
     if surface.is_empty() {
         return 0.0;
     }
+    let hits = covered(surface, means, radius)
+        .iter()
+        .filter(|c| **c)
+        .count();
+    hits as f64 / surface.len() as f64
+}
+
+/// For each `surface` point, whether a Gaussian mean lies within `radius`: where a map is
+/// missing, not only how much. Means are filed in a hash of cubes of side `radius`, so each
+/// point looks at 27 cells: linear in points plus means. Non-finite means cover nothing.
+pub fn covered(surface: &[[f32; 3]], means: &[[f32; 3]], radius: f32) -> Vec<bool> {
     let cell = |p: &[f32; 3]| p.map(|v| (v / radius).floor() as i32);
     let mut grid: HashMap<[i32; 3], Vec<u32>> = HashMap::new();
     for (i, m) in means.iter().enumerate() {
@@ -72,9 +82,9 @@ pub fn coverage(surface: &[[f32; 3]], means: &[[f32; 3]], radius: f32) -> f64 {
         }
     }
     let r2 = radius * radius;
-    let covered = surface
+    surface
         .iter()
-        .filter(|p| {
+        .map(|p| {
             let c = cell(p);
             (-1..=1).any(|dx| {
                 (-1..=1).any(|dy| {
@@ -90,6 +100,5 @@ pub fn coverage(surface: &[[f32; 3]], means: &[[f32; 3]], radius: f32) -> f64 {
                 })
             })
         })
-        .count();
-    covered as f64 / surface.len() as f64
+        .collect()
 }

@@ -1,6 +1,6 @@
-//! Map quality metrics: coverage against a brute-force search, SSIM against its closed form.
+//! Map quality metrics: coverage (and which points it covers) against a brute-force search, SSIM against its closed form.
 
-use autonomy::metrics::{coverage, ssim};
+use autonomy::metrics::{coverage, covered, ssim};
 use rand::{Rng, SeedableRng};
 
 #[test]
@@ -20,15 +20,16 @@ fn coverage_equals_a_brute_force_search() {
         surface.push([m[0] + 0.0499, m[1], m[2]]);
         surface.push([m[0], m[1] - 0.0501, m[2]]);
     }
-    let brute = surface
+    let brute_mask: Vec<bool> = surface
         .iter()
-        .filter(|p| {
+        .map(|p| {
             means
                 .iter()
                 .any(|m| (0..3).map(|k| (m[k] - p[k]).powi(2)).sum::<f32>() <= 0.05f32 * 0.05)
         })
-        .count() as f64
-        / surface.len() as f64;
+        .collect();
+    assert_eq!(covered(&surface, &means, 0.05), brute_mask);
+    let brute = brute_mask.iter().filter(|c| **c).count() as f64 / surface.len() as f64;
     let fast = coverage(&surface, &means, 0.05);
     assert_eq!(fast, brute);
     assert!(
