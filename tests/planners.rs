@@ -80,10 +80,11 @@ fn agslam_explores_the_room_without_collisions_and_repeats_exactly() {
 #[test]
 fn rtguide_leaves_a_narrow_corridor_within_60_s_with_either_grid_extension() {
     // Measured on the CI machine (2026-12-03, seed 3, latency none, 20 hidden views): with
-    // the default frontier regions and frontiers first, in the first room at t = 17.6 s,
-    // 15.5 m, 2 recoveries, coverage 59.1%, PSNR 15.04 dB (36.6 s before free space counted
-    // only within 3 m of the camera); with free-space edges alone (frontier regions off),
-    // at 30.0 s, 12.9 m, coverage 56.9%, 14.60 dB. The paper's planner (both off) never leaves the
+    // the default frontier regions and frontiers first, in the first room at t = 25.6 s,
+    // 13.4 m, 2 recoveries, coverage 58.4%, PSNR 14.57 dB (free space counted only within 2 m
+    // of the camera; 17.6 s at 3 m, 36.6 s at 7 m); with free-space edges alone (frontier
+    // regions off; the grid then counts all it has seen, 7 m), at 30.0 s, 13.2 m, coverage
+    // 63.0%, 15.70 dB (at 2 m it never left the corridor). The paper's planner (both off) never leaves the
     // corridor: 4.5 m, 14 recoveries, 43.0%.
     let dir = tempfile::tempdir().expect("tempdir");
     for (name, frontier_regions, free_space_edges, coverage, psnr) in [

@@ -256,7 +256,14 @@ impl RtGuidePlanner {
                 free_from_height: defaults.min_height,
                 height_slices: HEIGHT_SLICES,
                 slices_top: config.mount.height,
-                free_range: FREE_RANGE,
+                // The near range is for frontiers (what is seen thinly is not yet seen); with
+                // free-space edges alone the grid only finds paths, and at 2 m it found none
+                // out of the corridor fixture in 60 s.
+                free_range: if config.frontier_regions {
+                    FREE_RANGE
+                } else {
+                    defaults.free_range
+                },
                 ..defaults
             })
         });
