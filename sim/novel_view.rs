@@ -121,19 +121,6 @@ pub fn render_map(config: &RenderConfig, on_frame: &mut dyn FnMut(usize, usize))
     Ok(frames)
 }
 
-/// Scores the map at `map_path` in `world` on `views` hidden test views sampled with `seed`:
-/// with an episode's seed, camera size and view count, the test set is that episode's.
-pub fn evaluate_map(
-    map_path: &Path,
-    world_path: &Path,
-    sensor: &SensorConfig,
-    views: usize,
-    seed: u64,
-    engine: EngineChoice,
-) -> Result<Evaluation> {
-    evaluate_map_surface(map_path, world_path, sensor, views, seed, engine).map(|(e, _)| e)
-}
-
 /// A test-set surface point and whether the map covers it (`splatloop eval --surface-out`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SurfacePoint {
@@ -143,8 +130,10 @@ pub struct SurfacePoint {
     pub covered: bool,
 }
 
-/// [`evaluate_map`] and, point by point, the surface its coverage is measured on: two maps
-/// evaluated with the same world, seed and camera list the same points in the same order.
+/// Scores the map at `map_path` in `world` on `views` hidden test views sampled with `seed`
+/// (with an episode's seed, camera size and view count, the test set is that episode's), and
+/// lists, point by point, the surface its coverage is measured on: two maps evaluated with the
+/// same world, seed and camera list the same points in the same order.
 pub fn evaluate_map_surface(
     map_path: &Path,
     world_path: &Path,
