@@ -306,31 +306,37 @@ fn no_command_writes_over_its_inputs_or_an_existing_file_without_overwrite() {
     let map = dir.path().join("map.ply");
     tiny_map(&map);
     let scores = dir.path().join("scores.json");
-    std::fs::write(&scores, "mine").expect("write");
-    let eval = |out: &Path, overwrite: bool| {
-        let mut command = binary();
-        command
-            .args(["eval", "--test-views", "2", "--engine", "cpu", "--map"])
-            .arg(&map)
-            .arg("--out")
-            .arg(out);
-        if overwrite {
-            command.arg("--overwrite");
-        }
-        command.output().expect("runs")
-    };
-    let refused = eval(&scores, false);
-    assert!(!refused.status.success());
-    assert!(String::from_utf8_lossy(&refused.stderr).contains("--overwrite"));
-    assert_eq!(std::fs::read_to_string(&scores).expect("kept"), "mine");
-    let onto_map = eval(&map, true);
-    assert!(!onto_map.status.success());
-    assert!(String::from_utf8_lossy(&onto_map.stderr).contains("own input"));
-    assert!(autonomy::ply::read(&map).is_ok(), "the map survives");
-    assert!(eval(&scores, true).status.success());
-    assert!(std::fs::read_to_string(&scores)
-        .expect("scores")
-        .contains("psnr"));
+    // Both of eval's outputs: the scores (--out) and the surface points (--surface-out).
+    for (flag, written) in [("--out", "psnr"), ("--surface-out", "x,y,z,covered")] {
+        let eval = |out: &Path, overwrite: bool| {
+            let mut command = binary();
+            command
+                .args(["eval", "--test-views", "2", "--engine", "cpu", "--map"])
+                .arg(&map)
+                .arg(flag)
+                .arg(out);
+            if overwrite {
+                command.arg("--overwrite");
+            }
+            command.output().expect("runs")
+        };
+        std::fs::write(&scores, "mine").expect("write");
+        let refused = eval(&scores, false);
+        assert!(!refused.status.success(), "{flag}");
+        assert!(String::from_utf8_lossy(&refused.stderr).contains("--overwrite"));
+        assert_eq!(std::fs::read_to_string(&scores).expect("kept"), "mine");
+        let onto_map = eval(&map, true);
+        assert!(!onto_map.status.success(), "{flag}");
+        assert!(String::from_utf8_lossy(&onto_map.stderr).contains("own input"));
+        assert!(
+            autonomy::ply::read(&map).is_ok(),
+            "{flag}: the map survives"
+        );
+        assert!(eval(&scores, true).status.success(), "{flag}");
+        assert!(std::fs::read_to_string(&scores)
+            .expect("scores")
+            .contains(written));
+    }
     // render into the folder that holds its own map, even with --overwrite.
     let episode = dir.path().join("episode");
     record(&record_config(&episode, 0.4, false), &mut |_| {}).expect("episode");
