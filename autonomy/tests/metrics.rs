@@ -1,4 +1,5 @@
-//! Map quality metrics: coverage (and which points it covers) against a brute-force search, SSIM against its closed form.
+//! Map quality metrics: coverage (and which points it covers) against a brute-force search,
+//! SSIM against its closed form.
 
 use autonomy::metrics::{coverage, covered, ssim};
 use rand::{Rng, SeedableRng};
