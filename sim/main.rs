@@ -351,6 +351,16 @@ struct EpisodeOptions {
           default_missing_value = "true", value_name = "BOOL")]
     #[serde(default)]
     rtguide_frontiers_first: bool,
+    /// RT-GuIDE with frontier regions: end the episode once no frontier is left to view and
+    /// every region's Gaussians have settled (they move less per mapping step than Adam
+    /// moves one pulled steadily): what is left is the mapper's jitter, and driving on only
+    /// circles among revisits (a flagged extension, on by default; `false` runs the paper's
+    /// planner to the budget).
+    // Sweeps begun before the flag existed ran to the budget: their settings lack it.
+    #[arg(long, action = clap::ArgAction::Set, num_args = 0..=1, default_value_t = true,
+          default_missing_value = "true", value_name = "BOOL")]
+    #[serde(default)]
+    rtguide_finish: bool,
     /// agslam: weight of the localisation term log det(J^T J) in the goal score (the
     /// authors' code's 0.5; 0 is the paper's Table 3 ablation).
     #[arg(long, default_value_t = 0.5)]
@@ -813,6 +823,7 @@ fn run_run(args: RunArgs) -> Result<Option<u8>> {
             rtguide_free_space_edges: args.options.rtguide_free_space_edges,
             rtguide_frontier_regions: args.options.rtguide_frontier_regions,
             rtguide_frontiers_first: args.options.rtguide_frontiers_first,
+            rtguide_finish: args.options.rtguide_finish,
             pose_weight: args.options.pose_weight,
             agslam_candidates: args.options.agslam_candidates,
             agslam_train: match args.options.agslam_train.as_str() {
@@ -1455,12 +1466,13 @@ mod tests {
         let defaults = run_options(&[]);
         // The paper's planner is a switch turned off that is on by default.
         assert!(defaults.rtguide_frontier_regions && !defaults.rtguide_free_space_edges);
-        assert!(defaults.rtguide_frontiers_first);
-        for switches in 0..8 {
+        assert!(defaults.rtguide_frontiers_first && defaults.rtguide_finish);
+        for switches in 0..16 {
             let options = EpisodeOptions {
                 rtguide_frontier_regions: switches & 1 != 0,
                 rtguide_free_space_edges: switches & 2 != 0,
                 rtguide_frontiers_first: switches & 4 != 0,
+                rtguide_finish: switches & 8 != 0,
                 ..defaults.clone()
             };
             let map = match serde_json::to_value(&options).expect("serialises") {
@@ -1480,8 +1492,10 @@ mod tests {
         };
         old.remove("rtguide_frontier_regions");
         old.remove("rtguide_frontiers_first");
+        old.remove("rtguide_finish");
         let read: EpisodeOptions =
             serde_json::from_value(serde_json::Value::Object(old)).expect("reads");
         assert!(!read.rtguide_frontier_regions && !read.rtguide_frontiers_first);
+        assert!(!read.rtguide_finish);
     }
 }

@@ -86,6 +86,9 @@ pub struct PlannerOptions {
     /// RT-GuIDE: while a frontier viewpoint is offered, regions' viewpoints yield to it (on
     /// by default; off: regions compete with the frontiers by Omega / e^d).
     pub rtguide_frontiers_first: bool,
+    /// RT-GuIDE with frontier regions: end the episode once no frontier is left to view and
+    /// every region has settled (on by default; off: run to the budget).
+    pub rtguide_finish: bool,
     /// agslam: weight of the localisation term log det(J^T J) (0.5, the authors' code; 0 is
     /// their Table 3 ablation).
     pub pose_weight: f64,
@@ -103,6 +106,7 @@ impl Default for PlannerOptions {
             rtguide_free_space_edges: false,
             rtguide_frontier_regions: true,
             rtguide_frontiers_first: true,
+            rtguide_finish: true,
             pose_weight: AgslamConfig::default().pose_weight,
             agslam_candidates: AgslamConfig::default().candidates,
             agslam_train: TrainMode::Incremental,
@@ -121,6 +125,9 @@ pub struct PlannerContext {
     pub seed: u64,
     /// Seconds between plans.
     pub period: f64,
+    /// The most a mapping step moves a Gaussian, metres (`autonomy::planner::settled_omega`):
+    /// RT-GuIDE's regions below it have settled.
+    pub settled_omega: f64,
 }
 
 /// Builds the planner for an episode in `world`.
@@ -145,6 +152,8 @@ pub fn build(
             config.free_space_edges = options.rtguide_free_space_edges;
             config.frontier_regions = options.rtguide_frontier_regions;
             config.frontiers_first = options.rtguide_frontiers_first;
+            config.finish_when_explored = options.rtguide_finish;
+            config.settled_omega = context.settled_omega;
             Box::new(RtGuidePlanner::new(config, CollisionEngine::Grid))
         }
         PlannerKind::Fbe => Box::new(FbePlanner::new(

@@ -174,14 +174,16 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
     )?;
     let engine = Rasteriser::select(config.engine);
     let engine_name = engine.describe();
-    let mut mapper = Mapper::new(
-        MapperConfig {
-            iterations: config.iterations,
-            uncertainty: config.planner_options.rtguide_uncertainty,
-            ..MapperConfig::default()
-        },
-        engine,
+    let mapper_config = MapperConfig {
+        iterations: config.iterations,
+        uncertainty: config.planner_options.rtguide_uncertainty,
+        ..MapperConfig::default()
+    };
+    let settled_omega = autonomy::planner::settled_omega(
+        mapper_config.iterations,
+        f64::from(mapper_config.rates.means),
     );
+    let mut mapper = Mapper::new(mapper_config, engine);
     let mut planner = planners::build(
         config.planner,
         &config.planner_options,
@@ -191,6 +193,7 @@ pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) ->
             range: config.sensor.max_range,
             seed: config.seed,
             period: config.think_period,
+            settled_omega,
         },
     )?;
     let planner_settings = planner.settings();

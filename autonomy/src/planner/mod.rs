@@ -82,6 +82,25 @@ pub struct PlannerConfig {
     /// frontier viewpoint can be chosen. Off: they compete by Omega / e^d (a flagged
     /// extension, `--rtguide-frontiers-first`, on by default on the command line).
     pub frontiers_first: bool,
+    /// With frontier regions: the episode ends once no frontier is left to view and every
+    /// region's Omega is below `settled_omega`. Then nothing the planner values is left: the
+    /// regions' utility is the mapper's jitter, Omega / e^d an argmax over noise that picks
+    /// the nearest viewpoint, then the next, and the robot drove in circles for the rest of
+    /// the budget while the mapper's revisits moved Gaussians off the surface (office_04 from
+    /// 600 s of 1345 s; warehouse_02 lost 1.7 points of coverage). Off: the paper's planner,
+    /// which runs to the budget (a flagged extension, `--rtguide-finish`).
+    pub finish_when_explored: bool,
+    /// A region is settled below this Omega, metres per mapping step: the most Adam moves a
+    /// Gaussian pulled steadily one way (its position rate on each axis, every iteration),
+    /// so one region's Gaussians moving less on average are jittering, not converging. The
+    /// host sets it from the mapper's settings (`settled_omega`).
+    pub settled_omega: f64,
+}
+
+/// The most a mapping step of `iterations` Adam iterations at position rate `rate` (metres)
+/// moves a Gaussian: `rate` on each of three axes, every iteration.
+pub fn settled_omega(iterations: usize, rate: f64) -> f64 {
+    iterations as f64 * rate * 3f64.sqrt()
 }
 
 /// The robot's footprint radius marked free in the evidence grid, metres.
@@ -170,6 +189,11 @@ impl Default for PlannerConfig {
             free_space_edges: false,
             frontier_regions: false,
             frontiers_first: false,
+            finish_when_explored: false,
+            settled_omega: settled_omega(
+                10,
+                f64::from(crate::adam::LearningRates::default().means),
+            ),
         }
     }
 }
@@ -234,6 +258,18 @@ pub struct RtGuidePlanner {
     set_aside_frontiers: Vec<[f64; 2]>,
     /// Every give-up, to count a frontier's attempts.
     given_up_frontiers: Vec<[f64; 2]>,
+    /// This plan's frontier clusters left out only because their viewpoint is at the robot:
+    /// not yet viewed, so exploration is not over.
+    frontiers_at_robot: usize,
+}
+
+/// What one plan comes to: a plan to drive, or the end of the exploration with its reason.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RtGuideStep {
+    /// Drive this.
+    Plan(RtGuidePlan),
+    /// Nothing is left to explore (`PlannerConfig::finish_when_explored`): why.
+    Explored(String),
 }
 
 impl RtGuidePlanner {
@@ -289,6 +325,7 @@ impl RtGuidePlanner {
             look_at: None,
             set_aside_frontiers: Vec::new(),
             given_up_frontiers: Vec::new(),
+            frontiers_at_robot: 0,
         }
     }
 
@@ -298,13 +335,34 @@ impl RtGuidePlanner {
     }
 
     /// Plans from `robot` over `map`.
+    /// Never ends the exploration: `step` does, when the config says so.
     pub fn plan(&mut self, map: &GaussianMap, robot: Pose2) -> Result<RtGuidePlan, PlanFailure> {
+        match self.step_with(map, robot, false)? {
+            RtGuideStep::Plan(plan) => Ok(plan),
+            // `step_with` ends nothing when told not to.
+            RtGuideStep::Explored(_) => Err(PlanFailure::GoalUnreachable),
+        }
+    }
+
+    /// Plans from `robot` over `map`, or says the exploration is over
+    /// (`PlannerConfig::finish_when_explored`).
+    pub fn step(&mut self, map: &GaussianMap, robot: Pose2) -> Result<RtGuideStep, PlanFailure> {
+        let finish = self.config.finish_when_explored && self.config.frontier_regions;
+        self.step_with(map, robot, finish)
+    }
+
+    fn step_with(
+        &mut self,
+        map: &GaussianMap,
+        robot: Pose2,
+        finish: bool,
+    ) -> Result<RtGuideStep, PlanFailure> {
         let t0 = Instant::now();
         self.update(map);
         if let Some(grid) = &mut self.evidence {
             grid.set_gaussians(&map.gaussians.means);
         }
-        self.plan_with(robot, t0)
+        self.plan_with(robot, t0, finish)
     }
 
     /// Brings the executor's copy of the map and everything derived from it up to date,
@@ -316,7 +374,12 @@ impl RtGuidePlanner {
         self.counter.set_stats(&self.tally.stats());
     }
 
-    fn plan_with(&mut self, robot: Pose2, t0: Instant) -> Result<RtGuidePlan, PlanFailure> {
+    fn plan_with(
+        &mut self,
+        robot: Pose2,
+        t0: Instant,
+        finish: bool,
+    ) -> Result<RtGuideStep, PlanFailure> {
         let cfg = &self.config;
         if self.tally.count() == 0 {
             return Err(PlanFailure::EmptyMap);
@@ -348,7 +411,7 @@ impl RtGuidePlanner {
             if let Some(turn) = turn {
                 tracing::debug!("frontier at {anchor:.2?} reached unseen: turning to it");
                 self.look_at = Some((anchor, plans + 1));
-                return Ok(RtGuidePlan {
+                return Ok(RtGuideStep::Plan(RtGuidePlan {
                     information: 0.0,
                     guidance: vec![[robot.x, robot.y], anchor],
                     local_goal: anchor,
@@ -357,7 +420,7 @@ impl RtGuidePlanner {
                     seconds: [t0.elapsed().as_secs_f64(), 0.0, 0.0],
                     controls: turn.controls,
                     states: turn.states,
-                });
+                }));
             }
         }
         // A frontier target kept for as long as any target may be without the robot closing
@@ -414,6 +477,22 @@ impl RtGuidePlanner {
         if let Some(view) = view.as_ref().filter(|_| cfg.frontier_regions) {
             let unseen = UNSEEN_UNCERTAINTY * cfg.region_size;
             self.add_frontier_viewpoints(view, robot, unseen);
+            if finish && self.frontier_offers.is_empty() && self.frontiers_at_robot == 0 {
+                let busiest = self
+                    .tally
+                    .regions()
+                    .iter()
+                    .map(|r| r.omega)
+                    .fold(0.0, f64::max);
+                tracing::debug!("no frontier left; the most unsettled region's Omega {busiest:.6}");
+                if busiest < cfg.settled_omega {
+                    return Ok(RtGuideStep::Explored(format!(
+                        "explored: no frontier left to view and every region settled (Omega at most {:.2} mm per step, under {:.2} mm)",
+                        busiest * 1e3,
+                        cfg.settled_omega * 1e3
+                    )));
+                }
+            }
         }
         // Frontiers first: the regions' viewpoints yield while a frontier is offered, and come
         // back if no frontier viewpoint can be chosen (one within `min_viewpoint_distance` of
@@ -580,7 +659,7 @@ impl RtGuidePlanner {
             .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cost.total_cmp(&a.1.cost)))
             .map(|(xi, t)| (*xi, (*t).clone()))
             .ok_or(PlanFailure::NoCollisionFreeCandidate)?;
-        Ok(RtGuidePlan {
+        Ok(RtGuideStep::Plan(RtGuidePlan {
             controls: best.controls,
             states: best.states,
             information,
@@ -593,7 +672,7 @@ impl RtGuidePlanner {
                 (t2 - t1).as_secs_f64(),
                 t2.elapsed().as_secs_f64(),
             ],
-        })
+        }))
     }
 }
 
@@ -759,6 +838,7 @@ impl RtGuidePlanner {
         let cfg = &self.config;
         let height = cfg.collision.centre_height;
         self.frontier_offers.clear();
+        self.frontiers_at_robot = 0;
         for cluster in &view.clusters {
             let c = cluster.anchor(&view.grid);
             let skipped = self
@@ -795,6 +875,7 @@ impl RtGuidePlanner {
             };
             if (p[0] - robot.x).hypot(p[1] - robot.y) < cfg.min_viewpoint_distance {
                 tracing::trace!("frontier at {c:.2?}: its viewpoint {p:.2?} is at the robot");
+                self.frontiers_at_robot += 1;
                 continue;
             }
             let length = cluster.cells.len() as f64 * view.grid.cell;
@@ -831,6 +912,8 @@ impl crate::explore::Planner for RtGuidePlanner {
             "free_space_edges": c.free_space_edges,
             "frontier_regions": c.frontier_regions,
             "frontiers_first": c.frontiers_first,
+            "finish_when_explored": c.finish_when_explored,
+            "settled_omega": c.settled_omega,
         })
     }
 
@@ -842,8 +925,9 @@ impl crate::explore::Planner for RtGuidePlanner {
 
     fn plan(&mut self, map: &GaussianMap, start: Pose2) -> crate::explore::Decision {
         use crate::explore::{Decision, Plan};
-        match RtGuidePlanner::plan(self, map, start) {
-            Ok(p) => {
+        match self.step(map, start) {
+            Ok(RtGuideStep::Explored(reason)) => Decision::Done(reason),
+            Ok(RtGuideStep::Plan(p)) => {
                 tracing::debug!(
                     "at ({:.2}, {:.2}): goal ({:.2}, {:.2}), guidance {:.2?}, {} candidates, xi {}, controls {:?}",
                     start.x, start.y, p.local_goal[0], p.local_goal[1], p.guidance, p.candidates, p.information, p.controls
@@ -1221,6 +1305,82 @@ mod tests {
             );
             assert_eq!(turn.states.last(), Some(&s));
         }
+    }
+
+    #[test]
+    fn a_settled_region_moves_less_than_adam_moves_a_gaussian_pulled_one_way() {
+        use crate::adam::{Adam, LearningRates};
+        use crate::gaussians::{Gaussians, Gradients};
+        // Brute force: Adam's own steps on one Gaussian under a steady pull along (1, -2, 3)
+        // (a gradient of any size: Adam normalises it), ten iterations, as one mapping step.
+        let rates = LearningRates::default();
+        let mut g = Gaussians::default();
+        g.push([0.0; 3], 0.02, 0.5, [0.5; 3]);
+        let mut adam = Adam::new(rates);
+        adam.resize(1);
+        let mut grads = Gradients::zeros(1);
+        grads.means[0] = [1e-3, -2e-3, 3e-3];
+        grads.touched = vec![0];
+        for _ in 0..10 {
+            adam.step(&mut g, &grads);
+        }
+        let moved = g.means[0]
+            .iter()
+            .map(|m| f64::from(*m).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let bound = settled_omega(10, f64::from(rates.means));
+        assert!((moved - bound).abs() < 1e-3 * bound, "{moved} vs {bound}");
+    }
+
+    #[test]
+    fn exploration_ends_only_with_no_frontier_to_view_and_every_region_settled() {
+        let (grid, map) = room_with_a_corridor();
+        let robot = Pose2 {
+            x: 0.0,
+            y: 0.0,
+            theta: 0.0,
+        };
+        let settled = PlannerConfig::default().settled_omega;
+        // The corridor's frontier, where a planner that reached it keeps it.
+        let mut probe = frontiers_first_planner(&grid, true);
+        probe.plan(&map, robot).expect("a plan");
+        assert_eq!(probe.frontier_offers.len(), 1);
+        let anchor = probe.frontier_offers[0].1;
+        let step = |finish: bool, cleared: bool, omega: f32, at: Pose2| {
+            let mut planner = frontiers_first_planner(&grid, true);
+            planner.config.finish_when_explored = finish;
+            if cleared {
+                planner.cleared_frontiers.push(anchor);
+            }
+            let moving = GaussianMap::new(map.gaussians.clone(), vec![omega; map.len()]);
+            let step = planner.step(&moving, at).expect("a step");
+            assert!(planner.frontier_offers.is_empty() || !cleared);
+            match step {
+                RtGuideStep::Plan(_) => None,
+                RtGuideStep::Explored(why) => Some(why),
+            }
+        };
+        let below = (settled * 0.9) as f32;
+        let above = (settled * 1.1) as f32;
+        // The frontier viewed and the block's Gaussians settled: nothing is left.
+        let why = step(true, true, below, robot).expect("explored");
+        assert!(why.contains("no frontier left"), "{why}");
+        // Any of: the switch off, the frontier still to view, the block still moving.
+        assert_eq!(step(false, true, below, robot), None);
+        assert_eq!(step(true, false, below, robot), None);
+        assert_eq!(step(true, true, above, robot), None);
+        // A frontier whose viewpoint is where the robot stands is not offered, yet not viewed.
+        let offer = probe.frontier_offers[0].0;
+        let there = Pose2 {
+            x: offer[0],
+            y: offer[1] - 0.5,
+            theta: std::f64::consts::FRAC_PI_2,
+        };
+        let mut standing = frontiers_first_planner(&grid, true);
+        standing.plan(&map, there).expect("a plan");
+        assert!(standing.frontier_offers.is_empty() && standing.frontiers_at_robot == 1);
+        assert_eq!(step(true, false, below, there), None);
     }
 
     #[test]
