@@ -477,7 +477,14 @@ impl RtGuidePlanner {
         if let Some(view) = view.as_ref().filter(|_| cfg.frontier_regions) {
             let unseen = UNSEEN_UNCERTAINTY * cfg.region_size;
             self.add_frontier_viewpoints(view, robot, unseen);
-            if finish && self.frontier_offers.is_empty() && self.frontiers_at_robot == 0 {
+            // Only once a frontier was viewed: a first frame facing a wall has a frontier at
+            // the robot's feet with no goal clear of the Gaussians (apartment_02 at 0 s).
+            let viewed_one = !self.cleared_frontiers.is_empty();
+            if finish
+                && viewed_one
+                && self.frontier_offers.is_empty()
+                && self.frontiers_at_robot == 0
+            {
                 let busiest = self
                     .tally
                     .regions()
@@ -1381,6 +1388,39 @@ mod tests {
         standing.plan(&map, there).expect("a plan");
         assert!(standing.frontier_offers.is_empty() && standing.frontiers_at_robot == 1);
         assert_eq!(step(true, false, below, there), None);
+        // Before any frontier was viewed nothing ends, frontier or none: a closed room seen
+        // whole from a spawn in its middle.
+        let closed = closed_room();
+        let mut fresh = frontiers_first_planner(&closed, true);
+        fresh.config.finish_when_explored = true;
+        let still = GaussianMap::new(map.gaussians.clone(), vec![below; map.len()]);
+        let step = fresh.step(&still, robot).expect("a step");
+        assert!(matches!(step, RtGuideStep::Plan(_)), "{step:?}");
+        assert!(fresh.frontier_offers.is_empty() && fresh.frontiers_at_robot == 0);
+        fresh.cleared_frontiers.push([9.0, 9.0]);
+        let step = fresh.step(&still, robot).expect("a step");
+        assert!(matches!(step, RtGuideStep::Explored(_)), "{step:?}");
+    }
+
+    /// Seen floor: a 7 x 4 m room round the origin, walled all round (no frontier).
+    fn closed_room() -> EvidenceGrid {
+        use crate::math::Point3;
+        let cell = 0.05;
+        let inside = |x: f64, y: f64| (-2.0..5.0).contains(&x) && (-2.0..2.0).contains(&y);
+        let mut grid = EvidenceGrid::new(EvidenceConfig::default());
+        for j in -60..60 {
+            for i in -60..120 {
+                let (x, y) = ((i as f64 + 0.5) * cell, (j as f64 + 0.5) * cell);
+                let near_inside = (-2..=2)
+                    .any(|a| (-2..=2).any(|b| inside(x + a as f64 * cell, y + b as f64 * cell)));
+                if inside(x, y) {
+                    grid.integrate_ray(Point3::new(x, y, 0.5), Point3::new(x + 1e-3, y, 0.0));
+                } else if near_inside {
+                    grid.integrate_ray(Point3::new(x + 1e-3, y, 0.5), Point3::new(x, y, 0.5));
+                }
+            }
+        }
+        grid
     }
 
     #[test]
