@@ -353,11 +353,11 @@ struct EpisodeOptions {
     rtguide_frontiers_first: bool,
     /// RT-GuIDE with frontier regions: end the episode once no frontier is left to view and
     /// every region's Gaussians have settled (they move less per mapping step than Adam
-    /// moves one pulled steadily): what is left is the mapper's jitter, and driving on only
-    /// circles among revisits (a flagged extension, on by default; `false` runs the paper's
-    /// planner to the budget).
+    /// moves one pulled steadily): no loops among revisits, but no refinement either, so
+    /// the map's PSNR and density stop where the exploration did (a flagged extension, off
+    /// by default: the paper's planner runs to the budget; BENCHMARKS.md has both).
     // Sweeps begun before the flag existed ran to the budget: their settings lack it.
-    #[arg(long, action = clap::ArgAction::Set, num_args = 0..=1, default_value_t = true,
+    #[arg(long, action = clap::ArgAction::Set, num_args = 0..=1, default_value_t = false,
           default_missing_value = "true", value_name = "BOOL")]
     #[serde(default)]
     rtguide_finish: bool,
@@ -1466,7 +1466,7 @@ mod tests {
         let defaults = run_options(&[]);
         // The paper's planner is a switch turned off that is on by default.
         assert!(defaults.rtguide_frontier_regions && !defaults.rtguide_free_space_edges);
-        assert!(defaults.rtguide_frontiers_first && defaults.rtguide_finish);
+        assert!(defaults.rtguide_frontiers_first && !defaults.rtguide_finish);
         for switches in 0..16 {
             let options = EpisodeOptions {
                 rtguide_frontier_regions: switches & 1 != 0,

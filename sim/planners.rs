@@ -87,7 +87,7 @@ pub struct PlannerOptions {
     /// by default; off: regions compete with the frontiers by Omega / e^d).
     pub rtguide_frontiers_first: bool,
     /// RT-GuIDE with frontier regions: end the episode once no frontier is left to view and
-    /// every region has settled (on by default; off: run to the budget).
+    /// every region has settled (off by default: run to the budget).
     pub rtguide_finish: bool,
     /// agslam: weight of the localisation term log det(J^T J) (0.5, the authors' code; 0 is
     /// their Table 3 ablation).
@@ -106,7 +106,7 @@ impl Default for PlannerOptions {
             rtguide_free_space_edges: false,
             rtguide_frontier_regions: true,
             rtguide_frontiers_first: true,
-            rtguide_finish: true,
+            rtguide_finish: false,
             pose_weight: AgslamConfig::default().pose_weight,
             agslam_candidates: AgslamConfig::default().candidates,
             agslam_train: TrainMode::Incremental,
