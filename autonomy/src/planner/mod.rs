@@ -992,28 +992,11 @@ mod tests {
     /// of one block of Gaussians 3 m east of the origin that still moves (Omega 1e-3).
     fn room_with_a_corridor() -> (EvidenceGrid, GaussianMap) {
         use crate::gaussians::Gaussians;
-        use crate::math::Point3;
-        let cell = 0.05;
         let inside = |x: f64, y: f64| {
             ((-2.0..5.0).contains(&x) && (-2.0..2.0).contains(&y))
                 || ((-0.75..0.75).contains(&x) && (-2.0..14.0).contains(&y))
         };
-        let mut grid = EvidenceGrid::new(EvidenceConfig::default());
-        let (lo, hi) = ([-60, -60], [120, 300]);
-        for j in lo[1]..hi[1] {
-            for i in lo[0]..hi[0] {
-                let (x, y) = ((i as f64 + 0.5) * cell, (j as f64 + 0.5) * cell);
-                let near_inside = (-2..=2)
-                    .any(|a| (-2..=2).any(|b| inside(x + a as f64 * cell, y + b as f64 * cell)));
-                if inside(x, y) {
-                    // Free: a ray down to the floor ends in the cell without a hit.
-                    grid.integrate_ray(Point3::new(x, y, 0.5), Point3::new(x + 1e-3, y, 0.0));
-                } else if near_inside && y < 14.0 {
-                    // A wall: a ray that ends in the cell at wall height.
-                    grid.integrate_ray(Point3::new(x + 1e-3, y, 0.5), Point3::new(x, y, 0.5));
-                }
-            }
-        }
+        let grid = seen_floor(inside, [-60, -60], [120, 300], |_, y| y < 14.0);
         let mut g = Gaussians::default();
         for k in 0..400 {
             let (i, j) = ((k % 20) as f32, (k / 20) as f32);
@@ -1406,18 +1389,31 @@ mod tests {
 
     /// Seen floor: a 7 x 4 m room round the origin, walled all round (no frontier).
     fn closed_room() -> EvidenceGrid {
+        let inside = |x: f64, y: f64| (-2.0..5.0).contains(&x) && (-2.0..2.0).contains(&y);
+        seen_floor(inside, [-60, -60], [120, 60], |_, _| true)
+    }
+
+    /// An evidence grid of 5 cm cells `lo..hi` (cell indices): free where `inside`, and a
+    /// wall two cells thick round it where `walled`; the rest unseen.
+    fn seen_floor(
+        inside: impl Fn(f64, f64) -> bool,
+        lo: [i32; 2],
+        hi: [i32; 2],
+        walled: impl Fn(f64, f64) -> bool,
+    ) -> EvidenceGrid {
         use crate::math::Point3;
         let cell = 0.05;
-        let inside = |x: f64, y: f64| (-2.0..5.0).contains(&x) && (-2.0..2.0).contains(&y);
         let mut grid = EvidenceGrid::new(EvidenceConfig::default());
-        for j in -60..60 {
-            for i in -60..120 {
-                let (x, y) = ((i as f64 + 0.5) * cell, (j as f64 + 0.5) * cell);
+        for j in lo[1]..hi[1] {
+            for i in lo[0]..hi[0] {
+                let (x, y) = ((f64::from(i) + 0.5) * cell, (f64::from(j) + 0.5) * cell);
                 let near_inside = (-2..=2)
                     .any(|a| (-2..=2).any(|b| inside(x + a as f64 * cell, y + b as f64 * cell)));
                 if inside(x, y) {
+                    // Free: a ray down to the floor ends in the cell without a hit.
                     grid.integrate_ray(Point3::new(x, y, 0.5), Point3::new(x + 1e-3, y, 0.0));
-                } else if near_inside {
+                } else if near_inside && walled(x, y) {
+                    // A wall: a ray that ends in the cell at wall height.
                     grid.integrate_ray(Point3::new(x + 1e-3, y, 0.5), Point3::new(x, y, 0.5));
                 }
             }
