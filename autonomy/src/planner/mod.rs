@@ -192,10 +192,11 @@ impl Default for PlannerConfig {
             frontier_regions: false,
             frontiers_first: false,
             finish_when_explored: false,
-            settled_omega: settled_omega(
-                10,
-                f64::from(crate::adam::LearningRates::default().means),
-            ),
+            // The default mapper's; the host sets the episode's own.
+            settled_omega: {
+                let mapper = crate::mapping::MapperConfig::default();
+                settled_omega(mapper.iterations, f64::from(mapper.rates.means))
+            },
         }
     }
 }
@@ -349,8 +350,7 @@ impl RtGuidePlanner {
     /// Plans from `robot` over `map`, or says the exploration is over
     /// (`PlannerConfig::finish_when_explored`).
     pub fn step(&mut self, map: &GaussianMap, robot: Pose2) -> Result<RtGuideStep, PlanFailure> {
-        let finish = self.config.finish_when_explored && self.config.frontier_regions;
-        self.step_with(map, robot, finish)
+        self.step_with(map, robot, self.config.finish_when_explored)
     }
 
     fn step_with(
