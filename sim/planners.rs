@@ -89,6 +89,9 @@ pub struct PlannerOptions {
     /// RT-GuIDE with frontier regions: end the episode once no frontier is left to view and
     /// every region has settled (off by default: run to the budget).
     pub rtguide_finish: bool,
+    /// RT-GuIDE: reached viewpoints are set aside until no other can be chosen, so the
+    /// revisits tour the map (off by default: a reached viewpoint keeps a tenth of its utility).
+    pub rtguide_tour: bool,
     /// agslam: weight of the localisation term log det(J^T J) (0.5, the authors' code; 0 is
     /// their Table 3 ablation).
     pub pose_weight: f64,
@@ -107,6 +110,7 @@ impl Default for PlannerOptions {
             rtguide_frontier_regions: true,
             rtguide_frontiers_first: true,
             rtguide_finish: false,
+            rtguide_tour: false,
             pose_weight: AgslamConfig::default().pose_weight,
             agslam_candidates: AgslamConfig::default().candidates,
             agslam_train: TrainMode::Incremental,
@@ -153,6 +157,7 @@ pub fn build(
             config.frontier_regions = options.rtguide_frontier_regions;
             config.frontiers_first = options.rtguide_frontiers_first;
             config.finish_when_explored = options.rtguide_finish;
+            config.tour_viewpoints = options.rtguide_tour;
             config.settled_omega = context.settled_omega;
             Box::new(RtGuidePlanner::new(config, CollisionEngine::Grid))
         }
