@@ -583,7 +583,15 @@ impl RtGuidePlanner {
                 }
             }
             if checked >= MAX_EDGE_CHECKS {
-                return Err(PlanFailure::GoalUnreachable);
+                // The tour's new round here too: viewpoints not yet reached may all lie behind
+                // walls (office_11 with the tour ended stuck, every plan's 64 checks spent).
+                if set_aside.is_empty() {
+                    return Err(PlanFailure::GoalUnreachable);
+                }
+                tracing::debug!("no viewpoint not yet reached has a clear edge; a new round");
+                self.graph.restore(std::mem::take(&mut set_aside));
+                self.visited.clear();
+                checked = 0;
             }
             self.graph.detach(best);
         };
@@ -1436,6 +1444,69 @@ mod tests {
         let round = target(&mut tour);
         assert!(close(round, first), "{round:?}");
         assert!(tour.visited.is_empty());
+    }
+
+    #[test]
+    fn with_the_tour_viewpoints_behind_a_wall_past_the_edge_checks_start_a_new_round() {
+        use crate::gaussians::Gaussians;
+        // A settled wall at x = 2 m (Omega 0); twelve moving blocks beyond it, whose 96
+        // viewpoints all have edges across it, more than a plan's edge checks; one moving
+        // block on the robot's side, every viewpoint of it already reached.
+        let mut g = Gaussians::default();
+        let mut omega = Vec::new();
+        let mut block = |g: &mut Gaussians, x: f32, y: f32| {
+            for k in 0..100 {
+                let (i, j) = ((k % 10) as f32, (k / 10) as f32);
+                g.push([x + 0.02 * i, y + 0.02 * j, 0.5], 0.02, 0.9, [0.5; 3]);
+                omega.push(1e-3);
+            }
+        };
+        for b in 0..12 {
+            block(&mut g, 10.0, -14.0 + 2.5 * b as f32);
+        }
+        block(&mut g, -3.0, 0.0);
+        for k in 0..800 {
+            g.push([2.0, -20.0 + 0.05 * k as f32, 0.5], 0.02, 0.9, [0.5; 3]);
+            omega.push(0.0);
+        }
+        let map = GaussianMap::new(g, omega);
+        let robot = Pose2::default();
+        let mut planner = RtGuidePlanner::new(
+            PlannerConfig {
+                tour_viewpoints: true,
+                ..PlannerConfig::default()
+            },
+            CollisionEngine::Grid,
+        );
+        planner.plan(&map, robot).expect("a plan");
+        let offered = offered_viewpoints(&planner);
+        let beyond = offered
+            .iter()
+            .filter(|(p, w)| p[0] > 2.0 && *w > 0.0)
+            .count();
+        assert!(
+            beyond > MAX_EDGE_CHECKS,
+            "{beyond} viewpoints beyond the wall"
+        );
+        let near_side: Vec<[f64; 2]> = offered
+            .iter()
+            .filter(|(p, w)| p[0] < 2.0 && *w > 0.0)
+            .map(|(p, _)| *p)
+            .collect();
+        assert!(!near_side.is_empty());
+        planner.target = None;
+        planner.visited = near_side.clone();
+        let plan = planner
+            .plan(&map, robot)
+            .expect("a new round, not GoalUnreachable");
+        let target = plan.guidance.last().copied().expect("guidance");
+        assert!(
+            near_side
+                .iter()
+                .any(|p| (p[0] - target[0]).hypot(p[1] - target[1]) < 1e-6),
+            "{target:?}"
+        );
+        assert!(planner.visited.is_empty());
     }
 
     #[test]
