@@ -1197,18 +1197,7 @@ mod tests {
         );
         let omega = UNSEEN_UNCERTAINTY * planner.config.region_size;
         planner.add_frontier_viewpoints(&view, robot, omega);
-        let offered = |planner: &RtGuidePlanner| -> Vec<([f64; 2], f64)> {
-            planner
-                .graph
-                .nodes
-                .iter()
-                .filter_map(|n| match n.kind {
-                    graph::NodeKind::Viewpoint { omega, .. } => Some((n.position, omega)),
-                    _ => None,
-                })
-                .collect()
-        };
-        let first = offered(&planner);
+        let first = offered_viewpoints(&planner);
         assert_eq!(first.len(), 2);
         for cluster in &view.clusters {
             // Brute force: the cluster's length in cells, and its viewpoint beside it.
@@ -1243,7 +1232,7 @@ mod tests {
         planner.cleared_frontiers.push(longer.anchor(&g));
         planner.graph.clear_viewpoints();
         planner.add_frontier_viewpoints(&view, robot, omega);
-        let second = offered(&planner);
+        let second = offered_viewpoints(&planner);
         assert_eq!(second.len(), 1);
         assert!(second[0].1 < first.iter().map(|f| f.1).fold(0.0, f64::max));
         // A given-up frontier is set aside while another is offered, offered again when none
@@ -1257,7 +1246,7 @@ mod tests {
         let worth = |planner: &mut RtGuidePlanner| -> Vec<f64> {
             planner.graph.clear_viewpoints();
             planner.add_frontier_viewpoints(&view, robot, omega);
-            offered(planner).iter().map(|o| o.1).collect()
+            offered_viewpoints(planner).iter().map(|o| o.1).collect()
         };
         let give_up = |planner: &mut RtGuidePlanner| {
             planner.target_frontier = Some(shorter);
