@@ -336,7 +336,8 @@ struct EpisodeOptions {
     /// RT-GuIDE: give unseen space utility, a viewpoint beside each frontier of a 2D evidence
     /// grid worth the uncertainty of unseen space, reached along the grid's free space, and
     /// candidates clear of unseen cells (a flagged extension, on by default: the paper's
-    /// regions of Gaussians alone leave rooms unentered; `false` is the paper's planner).
+    /// regions of Gaussians alone leave rooms unentered; `false`, with `--rtguide-frontiers-first
+    /// false --rtguide-tour false`, is the paper's planner).
     // Sweeps begun before the flag existed ran the paper's planner: their settings lack it.
     #[arg(long, action = clap::ArgAction::Set, num_args = 0..=1, default_value_t = true,
           default_missing_value = "true", value_name = "BOOL")]
@@ -364,9 +365,10 @@ struct EpisodeOptions {
     /// RT-GuIDE: set reached viewpoints aside until no other can be chosen, then offer them
     /// all again, so the revisits once the frontiers are spent tour the map's regions instead
     /// of circling among the viewpoints of the room the robot stands in (a flagged extension,
-    /// off by default: a reached viewpoint keeps a tenth of its utility; BENCHMARKS.md).
+    /// on by default; `false`: the paper's rule, a reached viewpoint keeps a tenth of its
+    /// utility; BENCHMARKS.md has both).
     // Sweeps begun before the flag existed ran without it: their settings lack it.
-    #[arg(long, action = clap::ArgAction::Set, num_args = 0..=1, default_value_t = false,
+    #[arg(long, action = clap::ArgAction::Set, num_args = 0..=1, default_value_t = true,
           default_missing_value = "true", value_name = "BOOL")]
     #[serde(default)]
     rtguide_tour: bool,
@@ -1477,7 +1479,7 @@ mod tests {
         // The paper's planner is a switch turned off that is on by default.
         assert!(defaults.rtguide_frontier_regions && !defaults.rtguide_free_space_edges);
         assert!(defaults.rtguide_frontiers_first && !defaults.rtguide_finish);
-        assert!(!defaults.rtguide_tour);
+        assert!(defaults.rtguide_tour);
         for switches in 0..32 {
             let options = EpisodeOptions {
                 rtguide_frontier_regions: switches & 1 != 0,

@@ -90,7 +90,8 @@ pub struct PlannerOptions {
     /// every region has settled (off by default: run to the budget).
     pub rtguide_finish: bool,
     /// RT-GuIDE: reached viewpoints are set aside until no other can be chosen, so the
-    /// revisits tour the map (off by default: a reached viewpoint keeps a tenth of its utility).
+    /// revisits tour the map (on by default; off: a reached viewpoint keeps a tenth of its
+    /// utility, the paper's rule).
     pub rtguide_tour: bool,
     /// agslam: weight of the localisation term log det(J^T J) (0.5, the authors' code; 0 is
     /// their Table 3 ablation).
@@ -110,7 +111,7 @@ impl Default for PlannerOptions {
             rtguide_frontier_regions: true,
             rtguide_frontiers_first: true,
             rtguide_finish: false,
-            rtguide_tour: false,
+            rtguide_tour: true,
             pose_weight: AgslamConfig::default().pose_weight,
             agslam_candidates: AgslamConfig::default().candidates,
             agslam_train: TrainMode::Incremental,

@@ -98,7 +98,7 @@ pub struct PlannerConfig {
     /// 2.3 m further on, so once the frontiers are spent and Omega is the mapper's jitter the
     /// robot hopped among the viewpoints of the room it stood in (office_11, generated with a
     /// seed outside the suite: 470 s of 948 within 2 m of one point). A flagged extension,
-    /// `--rtguide-tour`, off by default.
+    /// `--rtguide-tour`, on by default in the host (off here: the paper's planner).
     pub tour_viewpoints: bool,
     /// A region is settled below this Omega, metres per mapping step: the most Adam moves a
     /// Gaussian pulled steadily one way (its position rate on each axis, every iteration),
