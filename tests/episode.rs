@@ -29,8 +29,8 @@ fn smoke_episode_explores_without_collisions_and_repeats_exactly() {
     assert_eq!(first.ended, "budget");
     assert_eq!(first.frames, 300);
     // Measured on the CI machine (2026-12-02, 60 s, seed 3, the default frontier regions;
-    // the same with frontiers first, the default since; with the tour, the default since,
-    // the same path to the digit, 2026-12-03):
+    // the same with frontiers first, the default since; the tour, the default since, leaves
+    // the path as it was: groundtruth.txt identical with and without it, 2026-12-03):
     // 14.7 m driven, 112073 Gaussians, PSNR 21.4 dB, coverage 91.0% on 20 hidden views (the
     // paper's planner, 2026-11-25: 14.4 m, 20.7 dB, 90.5%). The floors leave room for other
     // machines' float rounding, which changes the trajectory.
@@ -283,9 +283,9 @@ fn a_60_s_rtguide_episode_in_a_generated_world_of_each_kind_has_no_collisions() 
     // committed suite), RT-GuIDE's defaults (frontier regions, frontiers first, candidates
     // 0.33 m from cells not seen free, 0.27 m along straight drives, a turn to face a frontier
     // reached sideways, free space within 2 m of the camera and only where rays crossed below
-    // it; the same to the digit with the tour, the default since): apartment_01 8.6 m, 2 recoveries, coverage 34.9%, PSNR 11.8 dB; office_01 11.5 m,
-    // 2 recoveries, 29.5%, 12.3 dB; warehouse_01 8.6 m, 3 recoveries, 14.7%, 8.6 dB (with
-    // free space within 3 m: 36.4% / 11.7, 28.9% / 11.7, 26.5% / 9.3; at 2 m warehouse_01's
+    // it; the same to the digit with the tour, the default since): apartment_01 8.6 m, 2
+    // recoveries, coverage 34.9%, PSNR 11.8 dB; office_01 11.5 m, 2 recoveries, 29.5%, 12.3 dB;
+    // warehouse_01 8.6 m, 3 recoveries, 14.7%, 8.6 dB (with free space within 3 m: 36.4% / 11.7, 28.9% / 11.7, 26.5% / 9.3; at 2 m warehouse_01's
     // robot stays within 3 m of its spawn for the first 50 s, 4.7% from 10 s to 40 s, and
     // ends its whole budget at 75.3%, 74.7% with aebe273: BENCHMARKS.md "Space seen within
     // 2 m"). Floors a little under those, so a regression shows.

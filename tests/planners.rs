@@ -80,8 +80,8 @@ fn agslam_explores_the_room_without_collisions_and_repeats_exactly() {
 #[test]
 fn rtguide_leaves_a_narrow_corridor_within_60_s_with_either_grid_extension() {
     // Measured on the CI machine (2026-12-03, seed 3, latency none, 20 hidden views; the
-    // same with the tour, the default since): with
-    // the default frontier regions and frontiers first, in the first room at t = 25.6 s,
+    // same to the digit with the tour, the default since): with the default frontier regions
+    // and frontiers first, in the first room at t = 25.6 s,
     // 13.4 m, 2 recoveries, coverage 58.4%, PSNR 14.57 dB (free space counted only within 2 m
     // of the camera; 17.6 s at 3 m, 36.6 s at 7 m); with free-space edges alone (frontier
     // regions off; the grid then counts all it has seen, 7 m), at 30.0 s, 13.2 m, coverage
