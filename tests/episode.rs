@@ -285,8 +285,9 @@ fn a_60_s_rtguide_episode_in_a_generated_world_of_each_kind_has_no_collisions() 
     // reached sideways, free space within 2 m of the camera and only where rays crossed below
     // it; the same to the digit with the tour, the default since): apartment_01 8.6 m, 2
     // recoveries, coverage 34.9%, PSNR 11.8 dB; office_01 11.5 m, 2 recoveries, 29.5%, 12.3 dB;
-    // warehouse_01 8.6 m, 3 recoveries, 14.7%, 8.6 dB (with free space within 3 m: 36.4% / 11.7, 28.9% / 11.7, 26.5% / 9.3; at 2 m warehouse_01's
-    // robot stays within 3 m of its spawn for the first 50 s, 4.7% from 10 s to 40 s, and
+    // warehouse_01 8.6 m, 3 recoveries, 14.7%, 8.6 dB (with free space within 3 m: 36.4% /
+    // 11.7, 28.9% / 11.7, 26.5% / 9.3; at 2 m warehouse_01's robot stays within 3 m of its
+    // spawn for the first 50 s, 4.7% from 10 s to 40 s, and
     // ends its whole budget at 75.3%, 74.7% with aebe273: BENCHMARKS.md "Space seen within
     // 2 m"). Floors a little under those, so a regression shows.
     let dir = tempfile::tempdir().expect("tempdir");

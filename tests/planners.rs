@@ -85,8 +85,8 @@ fn rtguide_leaves_a_narrow_corridor_within_60_s_with_either_grid_extension() {
     // 13.4 m, 2 recoveries, coverage 58.4%, PSNR 14.57 dB (free space counted only within 2 m
     // of the camera; 17.6 s at 3 m, 36.6 s at 7 m); with free-space edges alone (frontier
     // regions off; the grid then counts all it has seen, 7 m), at 30.0 s, 13.2 m, coverage
-    // 63.0%, 15.70 dB (at 2 m it never left the corridor). The paper's planner (both off) never leaves the
-    // corridor: 4.5 m, 14 recoveries, 43.0%.
+    // 63.0%, 15.70 dB (at 2 m it never left the corridor). The paper's planner (both off,
+    // without the tour) never leaves the corridor: 4.5 m, 14 recoveries, 43.0%.
     let dir = tempfile::tempdir().expect("tempdir");
     for (name, frontier_regions, free_space_edges, coverage, psnr) in [
         ("frontier regions", true, false, 0.4, 12.0),
