@@ -171,6 +171,82 @@ pub fn bench_render(
     Ok(rows)
 }
 
+/// One row of `bench loss`: median seconds of the loss with its gradient.
+#[derive(Debug, Clone)]
+pub struct LossBenchRow {
+    /// Image width and height.
+    pub resolution: (u32, u32),
+    /// The reference (`loss_generic` in f32: serial blurs, a task per channel).
+    pub reference: f64,
+    /// `mapping_loss` (strips of rows on every core, 8 pixels per SIMD step).
+    pub simd: f64,
+}
+
+/// Times the mapping loss with its gradient on a render of the synthetic room against a
+/// render of a perturbed copy, by the reference and by the SIMD version, alternately.
+pub fn bench_loss(resolutions: &[(u32, u32)], iterations: usize) -> Vec<LossBenchRow> {
+    use autonomy::loss::{loss_generic, loss_simd, RgbdSlices};
+    use autonomy::splat::cpu;
+    use autonomy::synthetic::{room_camera, room_surface};
+    let truth = room_surface(100_000, 1);
+    let mut moved = truth.clone();
+    for (i, m) in moved.means.iter_mut().enumerate() {
+        m[i % 3] += 0.004 * (((i * 7919) % 13) as f32 / 6.0 - 1.0);
+    }
+    let mut rows = Vec::new();
+    for &(width, height) in resolutions {
+        let camera = room_camera(width, height);
+        let (Ok(a), Ok(b)) = (cpu::render(&truth, &camera), cpu::render(&moved, &camera)) else {
+            continue;
+        };
+        let (a, b) = (a.images, b.images);
+        let n = a.width * a.height;
+        let (mut colour_grad, mut depth_grad) = (vec![0.0f32; 3 * n], vec![0.0f32; n]);
+        let rendered = RgbdSlices {
+            colour: &b.colour,
+            depth: &b.depth,
+        };
+        let target = RgbdSlices {
+            colour: &a.colour,
+            depth: &a.depth,
+        };
+        let mut samples = [Vec::new(), Vec::new()];
+        for _ in 0..iterations.max(1) + 1 {
+            let t0 = Instant::now();
+            loss_generic(
+                rendered,
+                target,
+                (a.width, a.height),
+                &mut colour_grad,
+                &mut depth_grad,
+            );
+
+            let t1 = Instant::now();
+            loss_simd(
+                rendered,
+                target,
+                (a.width, a.height),
+                &mut colour_grad,
+                &mut depth_grad,
+            );
+            samples[0].push((t1 - t0).as_secs_f64());
+            samples[1].push(t1.elapsed().as_secs_f64());
+        }
+        let median = |mut v: Vec<f64>| {
+            v.remove(0); // warm-up
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        let [reference, simd] = samples;
+        rows.push(LossBenchRow {
+            resolution: (width, height),
+            reference: median(reference),
+            simd: median(simd),
+        });
+    }
+    rows
+}
+
 /// One row of `bench map`: a mapping step as the map grows.
 #[derive(Debug, Clone)]
 pub struct MapBenchRow {

@@ -167,6 +167,9 @@ enum BenchTarget {
     Sensor,
     /// One mapping iteration (forward + loss + backward + Adam) of each splat engine.
     Render,
+    /// The mapping loss with its gradient (L1 + SSIM) at 320x240 and 640x480: the serial
+    /// reference against the SIMD version on every core.
+    Loss,
     /// Mapping steps (densify, iterations, prune) as the map of a 70 m2 apartment grows.
     Map,
     /// Full RT-GuIDE plans over 1e4-3e6 Gaussians of clutter per collision engine, and
@@ -595,6 +598,23 @@ fn run(command: Command) -> Result<Option<u8>> {
                         iterations.max(1),
                     )?;
                     print_render_bench(&name, &rows);
+                }
+                Ok(())
+            }
+            BenchTarget::Loss => {
+                let rows = splatloop::bench::bench_loss(&[(320, 240), (640, 480)], iterations);
+                println!("threads: {}", rayon::current_num_threads());
+                println!("| resolution | reference ms | SIMD ms | speed-up |");
+                println!("|---|---:|---:|---:|");
+                for r in &rows {
+                    println!(
+                        "| {}x{} | {:.2} | {:.2} | {:.1}x |",
+                        r.resolution.0,
+                        r.resolution.1,
+                        r.reference * 1e3,
+                        r.simd * 1e3,
+                        r.reference / r.simd
+                    );
                 }
                 Ok(())
             }

@@ -4,18 +4,18 @@
 use num_traits::Float;
 
 /// Window half-width: 11 taps.
-const RADIUS: usize = 5;
+pub(crate) const RADIUS: usize = 5;
 /// Window standard deviation, pixels.
 const SIGMA: f32 = 1.5;
-const C1: f32 = 0.01 * 0.01;
-const C2: f32 = 0.03 * 0.03;
+pub(crate) const C1: f32 = 0.01 * 0.01;
+pub(crate) const C2: f32 = 0.03 * 0.03;
 
 /// Scalars SSIM runs on.
 pub trait Real: Float + From<f32> + Send + Sync + std::iter::Sum {}
 impl Real for f32 {}
 impl Real for f64 {}
 
-fn window<F: Real>() -> [F; 2 * RADIUS + 1] {
+pub(crate) fn window<F: Real>() -> [F; 2 * RADIUS + 1] {
     let raw: [f32; 2 * RADIUS + 1] = std::array::from_fn(|i| {
         (-((i as f32 - RADIUS as f32).powi(2)) / (2.0 * SIGMA * SIGMA)).exp()
     });

@@ -1,5 +1,11 @@
 //! The mapping loss of DESIGN.md: mean L1 depth error on measured pixels + 0.4 mean L1 colour
 //! error + 0.1 (1 - SSIM), and its gradient with respect to the rendered images.
+//! [`loss_generic`] is the reference (generic so tests run it in f64); [`mapping_loss`] runs
+//! the same function in f32 on every core with SIMD ([`simd`]).
+
+mod simd;
+
+pub use simd::loss_simd;
 
 use crate::splat::{ImageGradients, Images};
 use crate::ssim::{ssim_channel, Real};
@@ -116,7 +122,7 @@ pub fn loss_generic<F: Real>(
 pub fn mapping_loss(rendered: &Images, target: Target<'_>) -> (LossTerms, ImageGradients) {
     let n = rendered.width * rendered.height;
     let mut grads = ImageGradients::zeros(n);
-    let [depth_l1, colour_l1, ssim] = loss_generic(
+    let [depth_l1, colour_l1, ssim] = loss_simd(
         RgbdSlices {
             colour: &rendered.colour,
             depth: &rendered.depth,
