@@ -29,6 +29,29 @@ impl Default for LearningRates {
     }
 }
 
+/// Adam's state, borrowed: for an engine that runs the optimiser where the map is (the GPU's
+/// resident map loads it before a mapping step).
+#[derive(Debug, Clone, Copy)]
+pub struct AdamState<'a> {
+    /// First moments, one record per Gaussian.
+    pub first: &'a Gaussians,
+    /// Second moments.
+    pub second: &'a Gaussians,
+    /// Steps taken per Gaussian (its bias correction).
+    pub steps: &'a [u32],
+}
+
+/// Adam's state, borrowed mutably: what the GPU's resident map stores back after a step.
+#[derive(Debug)]
+pub struct AdamStateMut<'a> {
+    /// First moments.
+    pub first: &'a mut Gaussians,
+    /// Second moments.
+    pub second: &'a mut Gaussians,
+    /// Steps taken per Gaussian.
+    pub steps: &'a mut [u32],
+}
+
 const BETA1: f32 = 0.9;
 const BETA2: f32 = 0.999;
 const EPSILON: f32 = 1e-15;
@@ -67,6 +90,24 @@ impl Adam {
             state.colours.resize(n, [0.0; 3]);
         }
         self.steps.resize(n, 0);
+    }
+
+    /// The state, to load elsewhere.
+    pub fn state(&self) -> AdamState<'_> {
+        AdamState {
+            first: &self.first,
+            second: &self.second,
+            steps: &self.steps,
+        }
+    }
+
+    /// The state, to store back into.
+    pub fn state_mut(&mut self) -> AdamStateMut<'_> {
+        AdamStateMut {
+            first: &mut self.first,
+            second: &mut self.second,
+            steps: &mut self.steps,
+        }
     }
 
     /// Keeps the state of the Gaussians whose `keep` flag is set (after pruning).

@@ -166,3 +166,158 @@ fn engine_choice_parses_and_cpu_is_always_available() {
     let direct = cpu::render(&scene(1, 10, &cam), &cam).expect("render");
     assert_eq!(rendered.images(), &direct.images);
 }
+
+/// The Gaussians whose `keep` flag is set, as pruning leaves them.
+fn kept(g: &Gaussians, keep: &[bool]) -> Gaussians {
+    let mut out = Gaussians::default();
+    for i in (0..g.len()).filter(|i| keep[*i]) {
+        out.means.push(g.means[i]);
+        out.log_radii.push(g.log_radii[i]);
+        out.logit_opacities.push(g.logit_opacities[i]);
+        out.colours.push(g.colours[i]);
+    }
+    out
+}
+
+/// `iterations` CPU mapping iterations on `views` in turn: the reference the resident GPU
+/// iteration must reproduce. Returns the loss terms of each.
+fn cpu_iterations(
+    gaussians: &mut Gaussians,
+    adam: &mut autonomy::adam::Adam,
+    views: &[(autonomy::camera::PinholeCamera, autonomy::splat::Images)],
+    iterations: usize,
+) -> Vec<autonomy::loss::LossTerms> {
+    (0..iterations)
+        .map(|i| {
+            let (cam, target) = &views[i % views.len()];
+            let render = cpu::render(gaussians, cam).expect("cpu render");
+            let (terms, image_grads) = autonomy::loss::mapping_loss(
+                &render.images,
+                autonomy::loss::Target {
+                    colour: &target.colour,
+                    depth: &target.depth,
+                },
+            );
+            let grads = cpu::backward(&render, &image_grads).expect("cpu backward");
+            adam.step(gaussians, &grads);
+            terms
+        })
+        .collect()
+}
+
+/// The resident iteration (render, loss, backward, Adam in one submit) against the CPU
+/// engine's, on a map that grows (as densification grows it) and shrinks (as pruning does),
+/// with its traffic: after warm-up no buffer is created, one submit per iteration, nothing
+/// uploaded and at most 64 bytes read back.
+#[test]
+fn resident_iterations_match_the_cpu_engine_and_stay_on_the_gpu() {
+    use autonomy::adam::{Adam, LearningRates};
+    use autonomy::splat::gpu::ResidentMap;
+    let Some(gpu) = engine(None) else { return };
+    let (width, height) = (64, 48);
+    let cam = camera(width, height);
+    let mut other = cam;
+    other.world_from_camera.translation.vector.x += 0.05;
+    // Targets: renders of the scene moved a little, so every Gaussian has a gradient.
+    let truth = scene(11, 600, &cam);
+    let views: Vec<_> = [cam, other]
+        .iter()
+        .map(|c| (*c, cpu::render(&truth, c).expect("target").images))
+        .collect();
+    let mut start = truth.clone();
+    for (i, m) in start.means.iter_mut().enumerate() {
+        m[i % 3] += 0.01 * (((i * 7919) % 13) as f32 / 6.0 - 1.0);
+    }
+    let mut resident = ResidentMap::new(&gpu, LearningRates::default());
+    for (c, images) in &views {
+        resident
+            .add_view(&gpu, c, &images.colour, &images.depth)
+            .expect("view");
+    }
+    // Three steps: 600 Gaussians, grown to 900 (new ones appended), shrunk to every other.
+    let mut cpu_map = start.clone();
+    let mut cpu_adam = Adam::new(LearningRates::default());
+    let mut gpu_map = start;
+    let mut gpu_adam = Adam::new(LearningRates::default());
+    for step in 0..3 {
+        if step == 1 {
+            let extra = scene(12, 300, &cam);
+            for map in [&mut cpu_map, &mut gpu_map] {
+                map.means.extend_from_slice(&extra.means);
+                map.log_radii.extend_from_slice(&extra.log_radii);
+                map.logit_opacities
+                    .extend_from_slice(&extra.logit_opacities);
+                map.colours.extend_from_slice(&extra.colours);
+            }
+        }
+        if step == 2 {
+            let keep: Vec<bool> = (0..cpu_map.len()).map(|i| i % 2 == 0).collect();
+            for (map, adam) in [(&mut cpu_map, &mut cpu_adam), (&mut gpu_map, &mut gpu_adam)] {
+                *map = kept(map, &keep);
+                adam.retain(&keep);
+            }
+        }
+        let n = gpu_map.len();
+        gpu_adam.resize(n);
+        let expected = cpu_iterations(&mut cpu_map, &mut cpu_adam, &views, 4);
+        resident
+            .load(&gpu, &gpu_map, gpu_adam.state())
+            .expect("load");
+        let mut got = Vec::new();
+        for i in 0..4 {
+            if i == 1 {
+                // Warm-up over: every later iteration stays on the GPU.
+                let warm = gpu.traffic();
+                got.push(resident.iterate(&gpu, i % 2).expect("iterate"));
+                let one = gpu.traffic() - warm;
+                assert_eq!(
+                    one.buffers, 0,
+                    "step {step}: buffers created in an iteration"
+                );
+                assert_eq!(one.submits, 1, "step {step}: submits in an iteration");
+                assert_eq!(
+                    one.uploaded, 0,
+                    "step {step}: bytes uploaded in an iteration"
+                );
+                assert!(
+                    one.read_back <= 64,
+                    "step {step}: {} bytes read back",
+                    one.read_back
+                );
+            } else {
+                got.push(resident.iterate(&gpu, i % 2).expect("iterate"));
+            }
+        }
+        let mut touched = vec![false; n];
+        resident
+            .store(&gpu, &mut gpu_map, gpu_adam.state_mut(), &mut touched)
+            .expect("store");
+        for (g, e) in got.iter().zip(&expected) {
+            for (name, a, b) in [
+                ("depth L1", g.depth_l1, e.depth_l1),
+                ("colour L1", g.colour_l1, e.colour_l1),
+                ("SSIM", g.ssim, e.ssim),
+            ] {
+                assert!(
+                    (a - b).abs() <= 1e-4 * b.abs().max(1e-2),
+                    "step {step} {name}: gpu {a}, cpu {b}"
+                );
+            }
+        }
+        assert!(touched.iter().any(|t| *t), "step {step}: nothing touched");
+        let flat = |g: &Gaussians| -> Vec<f32> {
+            g.means
+                .iter()
+                .flatten()
+                .chain(&g.log_radii)
+                .chain(&g.logit_opacities)
+                .chain(g.colours.iter().flatten())
+                .copied()
+                .collect()
+        };
+        assert_close("map after the step", &flat(&gpu_map), &flat(&cpu_map), 1e-4);
+        let (a, b) = (gpu_adam.state(), cpu_adam.state());
+        assert_eq!(a.steps, b.steps, "step {step}: Adam's step counts");
+        assert_close("first moments", &flat(a.first), &flat(b.first), 1e-4);
+    }
+}

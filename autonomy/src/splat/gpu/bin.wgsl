@@ -12,6 +12,9 @@
 @group(0) @binding(6) var<storage, read_write> pair_splats: array<u32>;
 // Per tile of the whole image: first pair, one past the last.
 @group(0) @binding(7) var<storage, read_write> ranges: array<u32>;
+// The scan's total: how many pairs the splats asked for (the pair buffers may hold fewer; the
+// resident iteration then grows them and repeats).
+@group(0) @binding(8) var<storage, read> pair_count: array<u32>;
 
 // Splat i's tiles inside the band as half-open (first column, end column, first row, end
 // row); all zero when it has none.
@@ -44,8 +47,12 @@ fn emit_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     // Positive floats order like their bits; ties keep splat order (the sort is stable).
     let depth = bitcast<u32>(splats[3u * i + 1u].x);
     var o = offsets[i];
+    let capacity = arrayLength(&pair_tiles);
     for (var ty = t.z; ty < t.w; ty++) {
         for (var tx = t.x; tx < t.y; tx++) {
+            if (o >= capacity) {
+                return;
+            }
             pair_tiles[o] = ty * params.tiles_x + tx;
             pair_depths[o] = depth;
             pair_splats[o] = i;
@@ -54,11 +61,10 @@ fn emit_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     }
 }
 
-// `params.count` holds the number of pairs here.
 @compute @workgroup_size(256)
 fn tile_ranges(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
-    let n = params.count;
+    let n = min(pair_count[0], arrayLength(&pair_tiles));
     if (i >= n) {
         return;
     }

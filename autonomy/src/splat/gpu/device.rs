@@ -1,6 +1,7 @@
 //! Opening a wgpu device for compute, and the small buffer chores every kernel needs
 //! (storage buffers, uniforms, read-back), with wgpu's errors turned into values.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use wgpu::util::DeviceExt;
 
@@ -30,6 +31,42 @@ pub enum GpuError {
     TooLarge(String),
 }
 
+/// What the host has asked of the device so far: the proxies of a GPU engine's cost that any
+/// adapter shows (a software one too), for `bench render` and the tests.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Traffic {
+    /// Buffers created.
+    pub buffers: u64,
+    /// Command buffers submitted to the queue.
+    pub submits: u64,
+    /// Bytes written from the host into buffers.
+    pub uploaded: u64,
+    /// Bytes copied back to the host.
+    pub read_back: u64,
+}
+
+impl std::ops::Sub for Traffic {
+    type Output = Traffic;
+
+    fn sub(self, earlier: Traffic) -> Traffic {
+        Traffic {
+            buffers: self.buffers - earlier.buffers,
+            submits: self.submits - earlier.submits,
+            uploaded: self.uploaded - earlier.uploaded,
+            read_back: self.read_back - earlier.read_back,
+        }
+    }
+}
+
+/// The running totals behind [`Traffic`].
+#[derive(Debug, Default)]
+struct TrafficCounters {
+    buffers: AtomicU64,
+    submits: AtomicU64,
+    uploaded: AtomicU64,
+    read_back: AtomicU64,
+}
+
 /// A device and queue, with the adapter they came from.
 pub struct GpuDevice {
     /// The device.
@@ -41,6 +78,7 @@ pub struct GpuDevice {
     /// Largest storage binding, bytes (the adapter's, or lower when asked).
     pub max_binding: u64,
     errors: Arc<Mutex<Vec<String>>>,
+    traffic: TrafficCounters,
 }
 
 impl std::fmt::Debug for GpuDevice {
@@ -156,6 +194,7 @@ impl GpuDevice {
             info,
             max_binding,
             errors,
+            traffic: TrafficCounters::default(),
         })
     }
 
@@ -187,9 +226,43 @@ impl GpuDevice {
         }
     }
 
+    /// The host's traffic with the device so far.
+    pub fn traffic(&self) -> Traffic {
+        let t = &self.traffic;
+        Traffic {
+            buffers: t.buffers.load(Ordering::Relaxed),
+            submits: t.submits.load(Ordering::Relaxed),
+            uploaded: t.uploaded.load(Ordering::Relaxed),
+            read_back: t.read_back.load(Ordering::Relaxed),
+        }
+    }
+
+    fn count(counter: &AtomicU64, amount: u64) {
+        counter.fetch_add(amount, Ordering::Relaxed);
+    }
+
+    /// Creates a buffer, counted.
+    pub fn create_buffer(&self, descriptor: &wgpu::BufferDescriptor<'_>) -> wgpu::Buffer {
+        Self::count(&self.traffic.buffers, 1);
+        self.device.create_buffer(descriptor)
+    }
+
+    /// Writes `data` into `buffer` at `offset` through the queue, counted.
+    pub fn write<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, offset: u64, data: &[T]) {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        Self::count(&self.traffic.uploaded, bytes.len() as u64);
+        self.queue.write_buffer(buffer, offset, bytes);
+    }
+
+    /// Submits `encoder` without waiting, counted.
+    pub fn enqueue(&self, encoder: wgpu::CommandEncoder) {
+        Self::count(&self.traffic.submits, 1);
+        self.queue.submit([encoder.finish()]);
+    }
+
     /// A storage buffer of at least `bytes` bytes (wgpu refuses empty bindings).
     pub fn storage(&self, label: &str, bytes: u64) -> wgpu::Buffer {
-        self.device.create_buffer(&wgpu::BufferDescriptor {
+        self.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
             size: bytes.max(16).next_multiple_of(4),
             usage: wgpu::BufferUsages::STORAGE
@@ -204,6 +277,8 @@ impl GpuDevice {
         if data.is_empty() {
             return self.storage(label, 16);
         }
+        Self::count(&self.traffic.buffers, 1);
+        Self::count(&self.traffic.uploaded, std::mem::size_of_val(data) as u64);
         self.device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -216,6 +291,8 @@ impl GpuDevice {
 
     /// A uniform buffer holding `value`.
     pub fn uniform<T: bytemuck::Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
+        Self::count(&self.traffic.buffers, 1);
+        Self::count(&self.traffic.uploaded, std::mem::size_of::<T>() as u64);
         self.device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -233,19 +310,26 @@ impl GpuDevice {
     ) -> Result<Vec<T>, GpuError> {
         let bytes = (count * std::mem::size_of::<T>()) as u64;
         if bytes == 0 {
-            self.queue.submit([encoder.finish()]);
+            self.enqueue(encoder);
             self.check()?;
             return Ok(Vec::new());
         }
         let padded = bytes.next_multiple_of(4);
-        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+        let staging = self.create_buffer(&wgpu::BufferDescriptor {
             label: Some("read-back"),
             size: padded,
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         encoder.copy_buffer_to_buffer(source, 0, &staging, 0, padded);
-        self.queue.submit([encoder.finish()]);
+        self.enqueue(encoder);
+        let values = self.map_read(&staging, bytes as usize)?;
+        Ok(bytemuck::pod_collect_to_vec::<u8, T>(&values))
+    }
+
+    /// Waits for the queue, then copies the first `bytes` bytes of the mappable `staging`
+    /// buffer back to the host (counted) and unmaps it, so it can be reused.
+    pub fn map_read(&self, staging: &wgpu::Buffer, bytes: usize) -> Result<Vec<u8>, GpuError> {
         let (sender, receiver) = std::sync::mpsc::channel();
         staging.map_async(wgpu::MapMode::Read, .., move |result| {
             // The receiver outlives the poll below; a failed send only means it gave up.
@@ -262,15 +346,16 @@ impl GpuDevice {
         let view = staging
             .get_mapped_range(..)
             .map_err(|e| GpuError::Operation(format!("reading a mapped buffer: {e}")))?;
-        let values = bytemuck::pod_collect_to_vec::<u8, T>(&view[..bytes as usize]);
+        let values = view[..bytes].to_vec();
         drop(view);
         staging.unmap();
+        Self::count(&self.traffic.read_back, bytes as u64);
         Ok(values)
     }
 
     /// Submits `encoder` and waits for it.
     pub fn submit(&self, encoder: wgpu::CommandEncoder) -> Result<(), GpuError> {
-        self.queue.submit([encoder.finish()]);
+        self.enqueue(encoder);
         self.device
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| GpuError::Operation(format!("waiting for the GPU: {e}")))?;

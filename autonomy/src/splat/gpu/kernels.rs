@@ -136,6 +136,21 @@ pub fn linear_groups(n: u32) -> (u32, u32) {
     }
 }
 
+/// The SSIM window's taps as a WGSL array, the very f32 values the CPU loss uses.
+fn window_constant() -> String {
+    let taps: Vec<String> = crate::ssim::window::<f32>()
+        .iter()
+        // Rust prints the shortest decimal that reads back as the same f32.
+        .map(|t| format!("{t:?}f"))
+        .collect();
+    format!(
+        "var<private> WINDOW: array<f32, {}> = array<f32, {}>({});",
+        taps.len(),
+        taps.len(),
+        taps.join(", ")
+    )
+}
+
 /// Every kernel of the engine.
 pub struct Kernels {
     /// project, chain.
@@ -150,6 +165,10 @@ pub struct Kernels {
     pub forward: Module,
     /// backward.
     pub backward: Module,
+    /// loss_h, loss_v, loss_bh, loss_bv, loss_total.
+    pub loss: Module,
+    /// adam_step.
+    pub adam: Module,
 }
 
 impl Kernels {
@@ -168,7 +187,7 @@ impl Kernels {
                 gpu,
                 "bin",
                 include_str!("bin.wgsl"),
-                &[Uniform, Read, Read, Write, Write, Write, Write, Write],
+                &[Uniform, Read, Read, Write, Write, Write, Write, Write, Read],
                 &["count_pairs", "emit_pairs", "tile_ranges"],
             ),
             scan: Module::new(
@@ -182,7 +201,7 @@ impl Kernels {
                 gpu,
                 "sort",
                 include_str!("sort.wgsl"),
-                &[Uniform, Read, Read, Read, Write, Write, Write, Write],
+                &[Uniform, Read, Read, Read, Write, Write, Write, Write, Read],
                 &["histogram_pass", "scatter_pass"],
             ),
             forward: Module::new(
@@ -199,6 +218,20 @@ impl Kernels {
                 &[Uniform, Read, Read, Read, Read, Read, Write, Read],
                 &["backward", "fisher"],
             ),
+            loss: Module::new(
+                gpu,
+                "loss",
+                &format!("{}\n{}", window_constant(), include_str!("loss.wgsl")),
+                &[Uniform, Read, Read, Write, Write, Write, Write, Write],
+                &["loss_h", "loss_v", "loss_bh", "loss_bv", "loss_total"],
+            ),
+            adam: Module::new(
+                gpu,
+                "adam",
+                include_str!("adam.wgsl"),
+                &[Uniform, Read, Write, Write, Write, Write, Write, Read],
+                &["adam_step"],
+            ),
         }
     }
 
@@ -211,8 +244,16 @@ impl Kernels {
         data: &wgpu::Buffer,
         n: u32,
     ) -> wgpu::Buffer {
+        let plan = self.scan_plan(gpu, data, n);
+        plan.record(self, encoder);
+        plan.total
+    }
+
+    /// The buffers and bindings of an exclusive prefix sum of the first `n` u32 of `data`,
+    /// made once so that recording it again creates nothing.
+    pub fn scan_plan(&self, gpu: &GpuDevice, data: &wgpu::Buffer, n: u32) -> ScanPlan {
         // Level l scans blocks of level l's data and writes block totals to level l + 1.
-        let mut levels: Vec<(wgpu::Buffer, wgpu::Buffer, wgpu::BindGroup, u32)> = Vec::new();
+        let mut levels = Vec::new();
         let mut current = data.clone();
         let mut count = n;
         loop {
@@ -220,22 +261,39 @@ impl Kernels {
             let sums = gpu.storage("scan sums", u64::from(blocks) * 4);
             let params = gpu.uniform("scan params", &[count, 0u32, 0, 0]);
             let bind = self.scan.bind(gpu, &[&params, &current, &sums]);
-            self.scan
-                .dispatch(encoder, "scan_blocks", &bind, linear_groups(count.max(1)));
-            levels.push((current, sums.clone(), bind, count));
+            levels.push((bind, count));
             if blocks == 1 {
-                break;
+                return ScanPlan {
+                    levels,
+                    total: sums,
+                };
             }
             current = sums;
             count = blocks;
         }
-        for (_, _, bind, count) in levels.iter().rev().skip(1) {
-            self.scan
-                .dispatch(encoder, "add_block_offsets", bind, linear_groups(*count));
+    }
+}
+
+/// A prefix sum ready to record: its levels' bindings, and the buffer whose first value holds
+/// the total once it has run.
+pub struct ScanPlan {
+    levels: Vec<(wgpu::BindGroup, u32)>,
+    /// The total of the scanned values, in its first u32.
+    pub total: wgpu::Buffer,
+}
+
+impl ScanPlan {
+    /// Records the scan into `encoder`.
+    pub fn record(&self, kernels: &Kernels, encoder: &mut wgpu::CommandEncoder) {
+        for (bind, count) in &self.levels {
+            kernels
+                .scan
+                .dispatch(encoder, "scan_blocks", bind, linear_groups((*count).max(1)));
         }
-        match levels.pop() {
-            Some((_, total, _, _)) => total,
-            None => unreachable!("the scan loop runs at least once"),
+        for (bind, count) in self.levels.iter().rev().skip(1) {
+            kernels
+                .scan
+                .dispatch(encoder, "add_block_offsets", bind, linear_groups(*count));
         }
     }
 }

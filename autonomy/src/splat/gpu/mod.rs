@@ -9,8 +9,10 @@
 
 mod device;
 pub(crate) mod kernels;
+mod resident;
 
-pub use device::{AdapterPolicy, GpuDevice, GpuError};
+pub use device::{AdapterPolicy, GpuDevice, GpuError, Traffic};
+pub use resident::ResidentMap;
 
 use super::{validate_camera, FisherDiagonal, ImageGradients, Images, RenderError, TILE};
 use crate::camera::PinholeCamera;
@@ -126,6 +128,11 @@ impl GpuRasteriser {
         self.gpu.describe()
     }
 
+    /// The host's traffic with the device so far (buffers created, submits, bytes each way).
+    pub fn traffic(&self) -> Traffic {
+        self.gpu.traffic()
+    }
+
     /// Whether the adapter is a software rasteriser.
     pub fn is_software(&self) -> bool {
         self.gpu.is_software()
@@ -185,7 +192,7 @@ impl GpuRasteriser {
         &self,
         state: &BandInputs,
         rows: (u32, u32),
-    ) -> Result<(wgpu::Buffer, wgpu::Buffer, u64), GpuError> {
+    ) -> Result<(wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, u64), GpuError> {
         let gpu = &self.gpu;
         let n = state.params.count;
         let params = GpuParams {
@@ -199,6 +206,7 @@ impl GpuRasteriser {
         let dummy2 = gpu.storage("unused", 16);
         let dummy3 = gpu.storage("unused", 16);
         let dummy4 = gpu.storage("unused", 16);
+        let dummy5 = gpu.storage("unused", 16);
         let bind = self.kernels.bin.bind(
             gpu,
             &[
@@ -210,6 +218,7 @@ impl GpuRasteriser {
                 &dummy2,
                 &dummy3,
                 &dummy4,
+                &dummy5,
             ],
         );
         let mut encoder = gpu.encoder();
@@ -218,7 +227,7 @@ impl GpuRasteriser {
             .dispatch(&mut encoder, "count_pairs", &bind, linear_groups(n));
         let total = self.kernels.scan(gpu, &mut encoder, &offsets, n);
         let total_value = gpu.read::<u32>(encoder, &total, 1)?;
-        Ok((uniform, offsets, u64::from(total_value[0])))
+        Ok((uniform, offsets, total, u64::from(total_value[0])))
     }
 
     /// Emits, sorts and ranges the pairs of one band; returns its lists.
@@ -227,6 +236,7 @@ impl GpuRasteriser {
         state: &BandInputs,
         uniform: &wgpu::Buffer,
         offsets: &wgpu::Buffer,
+        total: &wgpu::Buffer,
         pairs: u32,
         encoder: &mut wgpu::CommandEncoder,
     ) -> BandLists {
@@ -255,6 +265,7 @@ impl GpuRasteriser {
                 &a[1],
                 &a[2],
                 &ranges,
+                total,
             ],
         );
         self.kernels
@@ -267,7 +278,7 @@ impl GpuRasteriser {
         let blocks = pairs.div_ceil(kernels::GROUP).max(1);
         let histogram = gpu.storage("sort histogram", u64::from(blocks) * 256 * 4);
         for (shift, from_tile) in passes {
-            let sort_params = gpu.uniform("sort params", &[pairs, blocks, shift, from_tile]);
+            let sort_params = gpu.uniform("sort params", &[blocks, 0, shift, from_tile]);
             let bind = self.kernels.sort.bind(
                 gpu,
                 &[
@@ -279,6 +290,7 @@ impl GpuRasteriser {
                     &b[0],
                     &b[1],
                     &b[2],
+                    total,
                 ],
             );
             let groups = linear_groups(pairs);
@@ -291,12 +303,11 @@ impl GpuRasteriser {
                 .dispatch(encoder, "scatter_pass", &bind, groups);
             std::mem::swap(&mut a, &mut b);
         }
-        let range_params = gpu.uniform("range params", &GpuParams { count: pairs, ..p });
         encoder.clear_buffer(&ranges, 0, None);
         let bind = self.kernels.bin.bind(
             gpu,
             &[
-                &range_params,
+                uniform,
                 state.splats,
                 state.rects,
                 offsets,
@@ -304,6 +315,7 @@ impl GpuRasteriser {
                 &a[1],
                 &a[2],
                 &ranges,
+                total,
             ],
         );
         self.kernels
@@ -325,14 +337,15 @@ impl GpuRasteriser {
         let mut bands = Vec::new();
         while let Some(rows) = todo.pop() {
             let tall = u64::from(rows.1 - rows.0) * row_bytes > self.gpu.max_binding;
-            let (uniform, offsets, pairs) = if tall {
-                (None, None, 0)
+            let (uniform, offsets, total, pairs) = if tall {
+                (None, None, None, 0)
             } else {
-                let (u, o, p) = self.count_band(state, rows)?;
-                (Some(u), Some(o), p)
+                let (u, o, t, p) = self.count_band(state, rows)?;
+                (Some(u), Some(o), Some(t), p)
             };
             // The sort's histogram holds 256 counters per 256 pairs: as many as the pairs.
-            let (Some(uniform), Some(offsets), false) = (uniform, offsets, pairs > max_pairs)
+            let (Some(uniform), Some(offsets), Some(total), false) =
+                (uniform, offsets, total, pairs > max_pairs)
             else {
                 if rows.1 - rows.0 == 1 {
                     return Err(GpuError::TooLarge(format!(
@@ -348,7 +361,14 @@ impl GpuRasteriser {
                 continue;
             };
             let mut encoder = self.gpu.encoder();
-            let lists = self.bin_band(state, &uniform, &offsets, pairs as u32, &mut encoder);
+            let lists = self.bin_band(
+                state,
+                &uniform,
+                &offsets,
+                &total,
+                pairs as u32,
+                &mut encoder,
+            );
             self.gpu.submit(encoder)?;
             let height =
                 ((rows.1 - rows.0) * TILE as u32).min(state.params.height - rows.0 * TILE as u32);
@@ -382,22 +402,7 @@ impl GpuRasteriser {
         self.check_size(gaussians.len(), w * h)?;
         let gpu = &self.gpu;
         let params = self.params(camera, gaussians.len());
-        let packed: Vec<[f32; 8]> = (0..gaussians.len())
-            .map(|i| {
-                let m = gaussians.means[i];
-                let c = gaussians.colours[i];
-                [
-                    m[0],
-                    m[1],
-                    m[2],
-                    gaussians.log_radii[i],
-                    gaussians.logit_opacities[i],
-                    c[0],
-                    c[1],
-                    c[2],
-                ]
-            })
-            .collect();
+        let packed = resident::pack(gaussians);
         let gaussian_buffer = gpu.storage_with("gaussians", &packed);
         let splats = gpu.storage("splats", gaussians.len() as u64 * SPLAT_BYTES);
         let rects = gpu.storage("tile rects", gaussians.len() as u64 * 16);

@@ -4,8 +4,9 @@
 // slot per digit), `scatter` moves each pair to its slot, keeping the order of equal digits.
 
 struct SortParams {
-    n: u32,
+    // Blocks of 256 pairs the histogram is laid out for (the capacity's).
     blocks: u32,
+    _pad: u32,
     shift: u32,
     // 1: the digit comes from the tile, 0: from the depth.
     from_tile: u32,
@@ -19,6 +20,12 @@ struct SortParams {
 @group(0) @binding(5) var<storage, read_write> out_tiles: array<u32>;
 @group(0) @binding(6) var<storage, read_write> out_depths: array<u32>;
 @group(0) @binding(7) var<storage, read_write> out_splats: array<u32>;
+// The scan's total: the pairs to sort are the first min(total, capacity).
+@group(0) @binding(8) var<storage, read> pair_count: array<u32>;
+
+fn pairs() -> u32 {
+    return min(pair_count[0], arrayLength(&in_tiles));
+}
 
 var<workgroup> counts: array<atomic<u32>, 256>;
 var<workgroup> digits: array<u32, 256>;
@@ -35,10 +42,14 @@ fn histogram_pass(
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
     let block = linear_group(wid, groups);
+    // Groups past the histogram's blocks (a 2-D dispatch's padding) would alias its entries.
+    if (block >= sort.blocks) {
+        return;
+    }
     atomicStore(&counts[lid], 0u);
     workgroupBarrier();
     let i = block * GROUP + lid;
-    if (i < sort.n) {
+    if (i < pairs()) {
         atomicAdd(&counts[digit_of(i)], 1u);
     }
     workgroupBarrier();
@@ -52,8 +63,11 @@ fn scatter_pass(
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
     let block = linear_group(wid, groups);
+    if (block >= sort.blocks) {
+        return;
+    }
     let i = block * GROUP + lid;
-    let valid = i < sort.n;
+    let valid = i < pairs();
     var digit = 256u;
     if (valid) {
         digit = digit_of(i);
