@@ -96,15 +96,15 @@ pub struct RenderBenchRow {
     pub gaussians: usize,
     /// (pixel, Gaussian) pairs the tile lists hold: the work of one forward pass.
     pub pairs: u64,
-    /// Median seconds of each stage: forward, loss, backward, Adam.
-    pub stages: [f64; 4],
-}
-
-impl RenderBenchRow {
+    /// How the iteration ran: "host-driven" (each stage called from the host) or "resident"
+    /// (the GPU engine's whole iteration in one submit; its stages are not timed apart).
+    pub mode: &'static str,
+    /// Median seconds of each stage: forward, loss, backward, Adam (host-driven only).
+    pub stages: Option<[f64; 4]>,
     /// Median seconds of a whole iteration.
-    pub fn iteration(&self) -> f64 {
-        self.stages.iter().sum()
-    }
+    pub iteration: f64,
+    /// The GPU traffic of one iteration after warm-up (GPU engine only).
+    pub traffic: Option<autonomy::splat::gpu::Traffic>,
 }
 
 /// Times mapping iterations (forward + loss + backward + Adam) of `engine` on Gaussians spread
@@ -134,7 +134,11 @@ pub fn bench_render(
             let mut adam = Adam::new(LearningRates::default());
             let mut samples: Vec<[f64; 4]> = Vec::new();
             let mut pairs = 0;
-            for _ in 0..iterations + 1 {
+            let mut traffic_start = None;
+            for i in 0..iterations + 1 {
+                if i == 1 {
+                    traffic_start = engine.gpu().map(|g| g.traffic());
+                }
                 let t0 = Instant::now();
                 let render = engine.render(&gaussians, &camera)?;
                 let t1 = Instant::now();
@@ -153,22 +157,103 @@ pub fn bench_render(
                 pairs = render.tile_pairs() * (TILE * TILE) as u64;
                 samples.push([t1 - t0, t2 - t1, t3 - t2, t4 - t3].map(|d| d.as_secs_f64()));
             }
+            let traffic = engine.gpu().map(|g| g.traffic());
             samples.remove(0); // warm-up
             let median = |stage: usize| {
                 let mut v: Vec<f64> = samples.iter().map(|s| s[stage]).collect();
                 v.sort_by(f64::total_cmp);
                 v[v.len() / 2]
             };
+            let mut totals: Vec<f64> = samples.iter().map(|s| s.iter().sum()).collect();
+            totals.sort_by(f64::total_cmp);
             rows.push(RenderBenchRow {
                 engine: engine.describe(),
                 resolution: (width, height),
                 gaussians: count,
                 pairs,
-                stages: [median(0), median(1), median(2), median(3)],
+                mode: "host-driven",
+                stages: Some([median(0), median(1), median(2), median(3)]),
+                iteration: totals[totals.len() / 2],
+                traffic: traffic_per_iteration(engine, traffic_start, traffic, iterations),
             });
+            if let Some(gpu) = engine.gpu() {
+                rows.push(resident_row(
+                    gpu, &fitted, &camera, &target, iterations, pairs,
+                )?);
+            }
         }
     }
     Ok(rows)
+}
+
+/// Traffic per iteration between two readings of the counters.
+fn traffic_per_iteration(
+    engine: &autonomy::splat::Rasteriser,
+    start: Option<autonomy::splat::gpu::Traffic>,
+    end: Option<autonomy::splat::gpu::Traffic>,
+    iterations: usize,
+) -> Option<autonomy::splat::gpu::Traffic> {
+    let (Some(start), Some(end), Some(_)) = (start, end, engine.gpu()) else {
+        return None;
+    };
+    let d = end - start;
+    let n = iterations.max(1) as u64;
+    Some(autonomy::splat::gpu::Traffic {
+        buffers: d.buffers / n,
+        submits: d.submits / n,
+        uploaded: d.uploaded / n,
+        read_back: d.read_back / n,
+    })
+}
+
+/// The GPU engine's resident iteration on the same problem as the host-driven rows.
+fn resident_row(
+    gpu: &autonomy::splat::gpu::GpuRasteriser,
+    fitted: &autonomy::gaussians::Gaussians,
+    camera: &autonomy::camera::PinholeCamera,
+    target: &autonomy::splat::Images,
+    iterations: usize,
+    pairs: u64,
+) -> std::result::Result<RenderBenchRow, autonomy::splat::RenderError> {
+    use autonomy::adam::{Adam, LearningRates};
+    let mut resident = autonomy::splat::gpu::ResidentMap::new(gpu, LearningRates::default());
+    let mut adam = Adam::new(LearningRates::default());
+    adam.resize(fitted.len());
+    resident.load(gpu, fitted, adam.state())?;
+    let view = resident.add_view(gpu, camera, &target.colour, &target.depth)?;
+    let mut times = Vec::new();
+    let mut start = None;
+    for i in 0..iterations + 1 {
+        if i == 1 {
+            start = Some(gpu.traffic());
+        }
+        let t0 = Instant::now();
+        resident.iterate(gpu, view)?;
+        times.push(t0.elapsed().as_secs_f64());
+    }
+    let end = gpu.traffic();
+    times.remove(0); // warm-up
+    times.sort_by(f64::total_cmp);
+    let n = iterations.max(1) as u64;
+    let traffic = start.map(|s| {
+        let d = end - s;
+        autonomy::splat::gpu::Traffic {
+            buffers: d.buffers / n,
+            submits: d.submits / n,
+            uploaded: d.uploaded / n,
+            read_back: d.read_back / n,
+        }
+    });
+    Ok(RenderBenchRow {
+        engine: gpu.describe(),
+        resolution: (camera.intrinsics.width, camera.intrinsics.height),
+        gaussians: fitted.len(),
+        pairs,
+        mode: "resident",
+        stages: None,
+        iteration: times[times.len() / 2],
+        traffic,
+    })
 }
 
 /// One row of `bench loss`: median seconds of the loss with its gradient.

@@ -766,22 +766,34 @@ fn distinct_engines(choices: &[String]) -> Result<Vec<Rasteriser>> {
 
 fn print_render_bench(engine: &str, rows: &[splatloop::bench::RenderBenchRow]) {
     println!("engine: {engine}");
-    println!("| resolution | Gaussians | pixel-splat pairs | forward ms | loss ms | backward ms | Adam ms | iteration ms | pairs/s (M) |");
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| resolution | Gaussians | mode | pixel-splat pairs | forward ms | loss ms | backward ms | Adam ms | iteration ms | pairs/s (M) | buffers created | submits | bytes up | bytes back |");
+    println!("|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in rows {
-        let ms = r.stages.map(|s| s * 1e3);
+        let stages = match r.stages {
+            Some(s) => s.map(|v| format!("{:.2}", v * 1e3)),
+            None => std::array::from_fn(|_| "-".to_string()),
+        };
+        let traffic = match r.traffic {
+            Some(t) => [t.buffers, t.submits, t.uploaded, t.read_back].map(|v| v.to_string()),
+            None => std::array::from_fn(|_| "-".to_string()),
+        };
         println!(
-            "| {}x{} | {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.0} |",
+            "| {}x{} | {} | {} | {} | {} | {} | {} | {} | {:.2} | {:.0} | {} | {} | {} | {} |",
             r.resolution.0,
             r.resolution.1,
             r.gaussians,
+            r.mode,
             r.pairs,
-            ms[0],
-            ms[1],
-            ms[2],
-            ms[3],
-            r.iteration() * 1e3,
-            r.pairs as f64 / r.iteration() / 1e6
+            stages[0],
+            stages[1],
+            stages[2],
+            stages[3],
+            r.iteration * 1e3,
+            r.pairs as f64 / r.iteration / 1e6,
+            traffic[0],
+            traffic[1],
+            traffic[2],
+            traffic[3],
         );
     }
 }

@@ -364,3 +364,52 @@ fn a_degree_3_ply_holds_zero_higher_harmonics_and_the_same_map() {
     assert_eq!(ra.images().colour, rb.images().colour);
     assert_eq!(ra.images().depth, rb.images().depth);
 }
+
+/// The mapper with the GPU engine (its resident iteration, lavapipe in CI) against the CPU
+/// engine's on the same frames: keyframes added, the current frame's view reused, the map
+/// grown and pruned between steps. The maps agree to rounding.
+#[test]
+fn the_gpu_engine_maps_like_the_cpu_engine() {
+    use autonomy::splat::gpu::{AdapterPolicy, GpuError, GpuRasteriser};
+    let gpu = match GpuRasteriser::new(AdapterPolicy::AllowSoftware, None) {
+        Ok(g) => g,
+        Err(GpuError::NoAdapter(reason)) => {
+            eprintln!("SKIPPED: no wgpu adapter at all: {reason}");
+            return;
+        }
+        Err(e) => panic!("an adapter exists but the engine failed: {e}"),
+    };
+    let scene = BoxScene::room();
+    let mut on_cpu = mapper();
+    let mut on_gpu = Mapper::new(MapperConfig::default(), Rasteriser::Gpu(Box::new(gpu)));
+    let mut keyframes = 0;
+    for i in 0..6 {
+        let camera = circle_camera(i, 24, 0.3);
+        integrate(&mut on_cpu, &scene, &camera);
+        integrate(&mut on_gpu, &scene, &camera);
+        let (a, b) = (on_gpu.map(), on_cpu.map());
+        assert_eq!(a.len(), b.len(), "frame {i}: Gaussian counts");
+        // Adam normalises each step to about the learning rate (1e-4 m for means) whatever
+        // the gradient's size, so a Gaussian whose gradient is rounding noise may step the
+        // other way on the other engine: all within 10 such steps, nearly all within one.
+        let mut moved: Vec<f32> = (0..a.len())
+            .map(|k| {
+                let (p, q) = (a.gaussians.means[k], b.gaussians.means[k]);
+                (0..3).map(|j| (p[j] - q[j]).abs()).fold(0.0f32, f32::max)
+            })
+            .collect();
+        moved.sort_by(f32::total_cmp);
+        let worst = moved.last().copied().unwrap_or(0.0);
+        let p99 = moved[moved.len() * 99 / 100];
+        assert!(worst <= 2e-3, "frame {i}: means differ by up to {worst} m");
+        let median = moved[moved.len() / 2];
+        assert!(
+            median <= 1e-5,
+            "frame {i}: half the means differ by over {median} m"
+        );
+        assert!(p99 <= 5e-4, "frame {i}: 1% of means differ by over {p99} m");
+        keyframes = on_gpu.keyframe_count();
+        assert_eq!(keyframes, on_cpu.keyframe_count());
+    }
+    assert!(keyframes >= 2, "the run should add keyframes ({keyframes})");
+}

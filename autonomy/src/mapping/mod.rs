@@ -15,6 +15,7 @@ use crate::gaussians::sigmoid;
 use crate::loss::{mapping_loss, Target};
 use crate::map::GaussianMap;
 use crate::math::{Isometry3, Matrix3, Matrix4, Rotation3, Translation3, UnitQuaternion};
+use crate::splat::gpu::ResidentMap;
 use crate::splat::{Rasteriser, RenderError};
 use std::time::Instant;
 use thiserror::Error;
@@ -219,6 +220,17 @@ pub struct Mapper {
     /// SplaTAM's scene radius: the largest measured depth so far / 3.
     scene_radius: f32,
     steps: usize,
+    /// With the GPU engine: the map's resident copy and the views uploaded to it.
+    resident: Option<ResidentViews>,
+}
+
+/// The GPU engine's resident map and which of its views hold what: the current frame's slot
+/// (reused every step until the frame becomes a keyframe) and each keyframe's view.
+#[derive(Debug)]
+struct ResidentViews {
+    map: ResidentMap,
+    current: Option<usize>,
+    keyframes: Vec<usize>,
 }
 
 impl Mapper {
@@ -233,6 +245,7 @@ impl Mapper {
             adam: Adam::new(config_rates),
             scene_radius: 0.0,
             steps: 0,
+            resident: None,
         }
     }
 
@@ -313,30 +326,75 @@ impl Mapper {
         let before = self.map.gaussians.means.clone();
         let mut touched = vec![false; self.map.len()];
         self.adam.resize(self.map.len());
-        for iteration in 0..self.config.iterations {
-            let (view_frame, view_camera) = if iteration % 3 != 2 || ranked.is_empty() {
-                (frame, &camera)
-            } else {
-                let kf = &self.keyframes[ranked[(iteration / 3) % ranked.len()].1];
-                (&kf.frame, &kf.camera)
+        let views: Vec<Option<usize>> = (0..self.config.iterations)
+            .map(|iteration| {
+                (iteration % 3 == 2 && !ranked.is_empty())
+                    .then(|| ranked[(iteration / 3) % ranked.len()].1)
+            })
+            .collect();
+        if let Some(gpu) = self.engine.gpu() {
+            // The whole iteration on the GPU: the map loaded once, stored back once.
+            let state = self.resident.get_or_insert_with(|| ResidentViews {
+                map: ResidentMap::new(gpu, self.config.rates),
+                current: None,
+                keyframes: Vec::new(),
+            });
+            let current = match state.current {
+                Some(slot) => {
+                    state
+                        .map
+                        .replace_view(gpu, slot, &camera, &frame.colour, &frame.depth)?;
+                    slot
+                }
+                None => {
+                    let slot = state
+                        .map
+                        .add_view(gpu, &camera, &frame.colour, &frame.depth)?;
+                    state.current = Some(slot);
+                    slot
+                }
             };
-            let render = self.engine.render(&self.map.gaussians, view_camera)?;
-            let (terms, image_grads) = mapping_loss(
-                render.images(),
-                Target {
-                    colour: &view_frame.colour,
-                    depth: &view_frame.depth,
-                },
-            );
-            if iteration == 0 {
-                report.loss.0 = terms.total();
+            state
+                .map
+                .load(gpu, &self.map.gaussians, self.adam.state())?;
+            for (iteration, keyframe) in views.iter().enumerate() {
+                let view = keyframe.map_or(current, |k| state.keyframes[k]);
+                let terms = state.map.iterate(gpu, view)?;
+                if iteration == 0 {
+                    report.loss.0 = terms.total();
+                }
+                report.loss.1 = terms.total();
             }
-            report.loss.1 = terms.total();
-            let grads = self.engine.backward(&render, &image_grads)?;
-            for &i in &grads.touched {
-                touched[i as usize] = true;
+            state.map.store(
+                gpu,
+                &mut self.map.gaussians,
+                self.adam.state_mut(),
+                &mut touched,
+            )?;
+        } else {
+            for (iteration, keyframe) in views.iter().enumerate() {
+                let (view_frame, view_camera) = match keyframe {
+                    Some(k) => (&self.keyframes[*k].frame, &self.keyframes[*k].camera),
+                    None => (frame, &camera),
+                };
+                let render = self.engine.render(&self.map.gaussians, view_camera)?;
+                let (terms, image_grads) = mapping_loss(
+                    render.images(),
+                    Target {
+                        colour: &view_frame.colour,
+                        depth: &view_frame.depth,
+                    },
+                );
+                if iteration == 0 {
+                    report.loss.0 = terms.total();
+                }
+                report.loss.1 = terms.total();
+                let grads = self.engine.backward(&render, &image_grads)?;
+                for &i in &grads.touched {
+                    touched[i as usize] = true;
+                }
+                self.adam.step(&mut self.map.gaussians, &grads);
             }
-            self.adam.step(&mut self.map.gaussians, &grads);
         }
 
         // Uncertainty: how far this step moved each Gaussian it touched.
@@ -376,6 +434,12 @@ impl Mapper {
                 camera,
             });
             report.keyframe = true;
+            // The current frame's view becomes the keyframe's; the next frame takes a new one.
+            if let Some(state) = &mut self.resident {
+                if let Some(slot) = state.current.take() {
+                    state.keyframes.push(slot);
+                }
+            }
         }
         self.steps += 1;
         report.gaussians = self.map.len();
@@ -392,6 +456,7 @@ impl Mapper {
     pub fn set_map(&mut self, map: GaussianMap) {
         self.map = map;
         self.keyframes.clear();
+        self.resident = None;
         self.adam = Adam::new(self.config.rates);
     }
 }

@@ -94,6 +94,14 @@ impl Rasteriser {
         }
     }
 
+    /// The GPU engine, when it is the one in use (for its resident iteration).
+    pub fn gpu(&self) -> Option<&GpuRasteriser> {
+        match self {
+            Rasteriser::Cpu => None,
+            Rasteriser::Gpu(g) => Some(g),
+        }
+    }
+
     /// Whether this is the GPU engine.
     pub fn is_gpu(&self) -> bool {
         matches!(self, Rasteriser::Gpu(_))
