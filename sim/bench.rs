@@ -174,7 +174,9 @@ pub fn bench_render(
                 mode: "host-driven",
                 stages: Some([median(0), median(1), median(2), median(3)]),
                 iteration: totals[totals.len() / 2],
-                traffic: traffic_per_iteration(engine, traffic_start, traffic, iterations),
+                traffic: traffic_start
+                    .zip(traffic)
+                    .map(|(start, end)| (end - start).per(iterations as u64)),
             });
             if let Some(gpu) = engine.gpu() {
                 rows.push(resident_row(
@@ -184,26 +186,6 @@ pub fn bench_render(
         }
     }
     Ok(rows)
-}
-
-/// Traffic per iteration between two readings of the counters.
-fn traffic_per_iteration(
-    engine: &autonomy::splat::Rasteriser,
-    start: Option<autonomy::splat::gpu::Traffic>,
-    end: Option<autonomy::splat::gpu::Traffic>,
-    iterations: usize,
-) -> Option<autonomy::splat::gpu::Traffic> {
-    let (Some(start), Some(end), Some(_)) = (start, end, engine.gpu()) else {
-        return None;
-    };
-    let d = end - start;
-    let n = iterations.max(1) as u64;
-    Some(autonomy::splat::gpu::Traffic {
-        buffers: d.buffers / n,
-        submits: d.submits / n,
-        uploaded: d.uploaded / n,
-        read_back: d.read_back / n,
-    })
 }
 
 /// The GPU engine's resident iteration on the same problem as the host-driven rows.
@@ -234,16 +216,7 @@ fn resident_row(
     let end = gpu.traffic();
     times.remove(0); // warm-up
     times.sort_by(f64::total_cmp);
-    let n = iterations.max(1) as u64;
-    let traffic = start.map(|s| {
-        let d = end - s;
-        autonomy::splat::gpu::Traffic {
-            buffers: d.buffers / n,
-            submits: d.submits / n,
-            uploaded: d.uploaded / n,
-            read_back: d.read_back / n,
-        }
-    });
+    let traffic = start.map(|s| (end - s).per(iterations as u64));
     Ok(RenderBenchRow {
         engine: gpu.describe(),
         resolution: (camera.intrinsics.width, camera.intrinsics.height),

@@ -58,6 +58,20 @@ impl std::ops::Sub for Traffic {
     }
 }
 
+impl Traffic {
+    /// The traffic of one of `n` equal operations (an iteration, when this is the traffic of
+    /// `n` of them).
+    pub fn per(self, n: u64) -> Traffic {
+        let n = n.max(1);
+        Traffic {
+            buffers: self.buffers / n,
+            submits: self.submits / n,
+            uploaded: self.uploaded / n,
+            read_back: self.read_back / n,
+        }
+    }
+}
+
 /// The running totals behind [`Traffic`].
 #[derive(Debug, Default)]
 struct TrafficCounters {

@@ -413,34 +413,25 @@ impl ResidentMap {
             std::mem::swap(&mut from, &mut to);
         }
         let sorted = from;
-        let bin = k.bin.bind(
-            gpu,
-            &[
-                &self.params,
-                &map.splats,
-                &map.rects,
-                &map.offsets,
-                &a[0],
-                &a[1],
-                &a[2],
-                &image.ranges,
-                total,
-            ],
-        );
-        let ranges = k.bin.bind(
-            gpu,
-            &[
-                &self.params,
-                &map.splats,
-                &map.rects,
-                &map.offsets,
-                &sorted[0],
-                &sorted[1],
-                &sorted[2],
-                &image.ranges,
-                total,
-            ],
-        );
+        // Binning writes the unsorted lists; the tile ranges read the sorted ones.
+        let bin_over = |lists: &[wgpu::Buffer; 3]| {
+            k.bin.bind(
+                gpu,
+                &[
+                    &self.params,
+                    &map.splats,
+                    &map.rects,
+                    &map.offsets,
+                    &lists[0],
+                    &lists[1],
+                    &lists[2],
+                    &image.ranges,
+                    total,
+                ],
+            )
+        };
+        let bin = bin_over(&a);
+        let ranges = bin_over(sorted);
         let forward = k.forward.bind(
             gpu,
             &[
