@@ -6,6 +6,7 @@ pub mod bench;
 pub mod bench_worlds;
 pub mod camera;
 mod canvas;
+pub mod commands;
 pub mod controls;
 pub mod dataset;
 pub mod egl;

@@ -13,13 +13,14 @@ use autonomy::explore::Planner;
 use autonomy::mapping::UncertaintyNorm;
 use autonomy::planner::information::CameraMount;
 use autonomy::planner::{PlannerConfig, RtGuidePlanner};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Which planner drives the robot.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum PlannerKind {
     /// RT-GuIDE: information-driven, on the map alone.
+    #[value(name = "rtguide")]
     RtGuide,
     /// Frontier-based exploration (AG-SLAM's baseline).
     Fbe,
@@ -68,55 +69,126 @@ impl std::str::FromStr for PlannerKind {
     }
 }
 
-/// The planners' own settings from the command line (each planner reads its own).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct PlannerOptions {
-    /// RT-GuIDE's uncertainty: l2 (the paper's) or sq (its Table II ablation). The mapper
-    /// applies it, so it is set for every planner but changes only rtguide's choices.
-    pub rtguide_uncertainty: UncertaintyNorm,
-    /// RT-GuIDE: seconds of each plan driven before the next may replace it (0, the paper's
-    /// replanning every period; more is a flagged extension).
-    pub rtguide_commit: f64,
-    /// RT-GuIDE: reach viewpoints along the free space of an evidence grid when their straight
-    /// edge is blocked (off: the paper's straight edges).
-    pub rtguide_free_space_edges: bool,
-    /// RT-GuIDE: a viewpoint beside each frontier of an evidence grid, so unseen space has
-    /// utility (on by default; off: the paper's regions of Gaussians only).
-    pub rtguide_frontier_regions: bool,
-    /// RT-GuIDE: while a frontier viewpoint is offered, regions' viewpoints yield to it (on
-    /// by default; off: regions compete with the frontiers by Omega / e^d).
-    pub rtguide_frontiers_first: bool,
+/// RT-GuIDE's settings: the paper's planner and its flagged extensions. One struct serves
+/// the command line (its flags), sweeps (sweep.json, by the flags' long names) and the library.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, clap::Args)]
+pub struct RtGuideOptions {
+    /// RT-GuIDE's uncertainty of a Gaussian: l2 (its displacement's norm, the paper's) or sq
+    /// (the squared norm: the paper's Table II ablation). The mapper applies it, so it is set
+    /// for every planner but changes only rtguide's choices.
+    #[arg(long = "rtguide-uncertainty", value_enum, default_value_t = UncertaintyNorm::L2)]
+    #[serde(rename = "rtguide_uncertainty")]
+    pub uncertainty: UncertaintyNorm,
+    /// RT-GuIDE: seconds of each plan the robot drives before the next plan may replace it
+    /// (0: the paper's replanning every second; more is a flagged extension).
+    #[arg(long = "rtguide-commit", default_value_t = 0.0)]
+    #[serde(rename = "rtguide_commit")]
+    pub commit: f64,
+    /// RT-GuIDE: reach a viewpoint along the free space of a 2D evidence grid (built from
+    /// the depth frames) when its straight edge into the graph crosses the map (a flagged
+    /// extension; off is the paper's straight edges).
+    #[arg(long = "rtguide-free-space-edges", action = clap::ArgAction::Set, num_args = 0..=1,
+          default_value_t = false, default_missing_value = "true", value_name = "BOOL")]
+    #[serde(rename = "rtguide_free_space_edges")]
+    pub free_space_edges: bool,
+    /// RT-GuIDE: give unseen space utility, a viewpoint beside each frontier of a 2D evidence
+    /// grid worth the uncertainty of unseen space, reached along the grid's free space, and
+    /// candidates clear of unseen cells (a flagged extension, on by default: the paper's
+    /// regions of Gaussians alone leave rooms unentered; `false`, with `--rtguide-frontiers-first
+    /// false --rtguide-tour false`, is the paper's planner).
+    // Sweeps begun before the flag existed ran the paper's planner: their settings lack it.
+    #[arg(long = "rtguide-frontier-regions", action = clap::ArgAction::Set, num_args = 0..=1,
+          default_value_t = true, default_missing_value = "true", value_name = "BOOL")]
+    #[serde(rename = "rtguide_frontier_regions", default)]
+    pub frontier_regions: bool,
+    /// RT-GuIDE with frontier regions: while a frontier viewpoint is offered, regions'
+    /// viewpoints yield to it, so the robot does not linger among nearby regions while a
+    /// room is left unseen farther off (a flagged extension, on by default; `false`: they
+    /// compete by Omega / e^d).
+    // Sweeps begun before the flag existed ran without it: their settings lack it.
+    #[arg(long = "rtguide-frontiers-first", action = clap::ArgAction::Set, num_args = 0..=1,
+          default_value_t = true, default_missing_value = "true", value_name = "BOOL")]
+    #[serde(rename = "rtguide_frontiers_first", default)]
+    pub frontiers_first: bool,
     /// RT-GuIDE with frontier regions: end the episode once no frontier is left to view and
-    /// every region has settled (off by default: run to the budget).
-    pub rtguide_finish: bool,
-    /// RT-GuIDE: reached viewpoints are set aside until no other can be chosen, so the
-    /// revisits tour the map (on by default; off: a reached viewpoint keeps a tenth of its
-    /// utility, the paper's rule).
-    pub rtguide_tour: bool,
-    /// agslam: weight of the localisation term log det(J^T J) (0.5, the authors' code; 0 is
-    /// their Table 3 ablation).
-    pub pose_weight: f64,
-    /// agslam: goal poses sampled around the chosen frontier cluster per plan.
-    pub agslam_candidates: usize,
-    /// agslam: H_train kept incrementally or recomputed over every keyframe each plan.
-    pub agslam_train: TrainMode,
+    /// every region's Gaussians have settled (they move less per mapping step than Adam
+    /// moves one pulled steadily): no loops among revisits, but no refinement either, so
+    /// the map's PSNR and density stop where the exploration did (a flagged extension, off
+    /// by default: the paper's planner runs to the budget; BENCHMARKS.md has both).
+    // Sweeps begun before the flag existed ran to the budget: their settings lack it.
+    #[arg(long = "rtguide-finish", action = clap::ArgAction::Set, num_args = 0..=1,
+          default_value_t = false, default_missing_value = "true", value_name = "BOOL")]
+    #[serde(rename = "rtguide_finish", default)]
+    pub finish: bool,
+    /// RT-GuIDE: set reached viewpoints aside until no other can be chosen, then offer them
+    /// all again, so the revisits once the frontiers are spent tour the map's regions instead
+    /// of circling among the viewpoints of the room the robot stands in (a flagged extension,
+    /// on by default; `false`: the paper's rule, a reached viewpoint keeps a tenth of its
+    /// utility; BENCHMARKS.md has both).
+    // Sweeps begun before the flag existed ran without it: their settings lack it.
+    #[arg(long = "rtguide-tour", action = clap::ArgAction::Set, num_args = 0..=1,
+          default_value_t = true, default_missing_value = "true", value_name = "BOOL")]
+    #[serde(rename = "rtguide_tour", default)]
+    pub tour: bool,
 }
 
-impl Default for PlannerOptions {
+impl Default for RtGuideOptions {
     fn default() -> Self {
-        PlannerOptions {
-            rtguide_uncertainty: UncertaintyNorm::L2,
-            rtguide_commit: 0.0,
-            rtguide_free_space_edges: false,
-            rtguide_frontier_regions: true,
-            rtguide_frontiers_first: true,
-            rtguide_finish: false,
-            rtguide_tour: true,
-            pose_weight: AgslamConfig::default().pose_weight,
-            agslam_candidates: AgslamConfig::default().candidates,
-            agslam_train: TrainMode::Incremental,
+        RtGuideOptions {
+            uncertainty: UncertaintyNorm::L2,
+            commit: 0.0,
+            free_space_edges: false,
+            frontier_regions: true,
+            frontiers_first: true,
+            finish: false,
+            tour: true,
         }
     }
+}
+
+/// AG-SLAM's settings that the command line exposes (the rest are the authors' values).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, clap::Args)]
+pub struct AgslamOptions {
+    /// agslam: weight of the localisation term log det(J^T J) in the goal score (the
+    /// authors' code's 0.5; 0 is the paper's Table 3 ablation).
+    #[arg(long = "pose-weight", default_value_t = AgslamConfig::default().pose_weight)]
+    pub pose_weight: f64,
+    /// agslam: goal poses sampled around the chosen frontier cluster per plan (the authors
+    /// use 256; the default is what fits the 1 s planning period on one CPU core, see
+    /// BENCHMARKS.md).
+    #[arg(long = "agslam-candidates", default_value_t = AgslamConfig::default().candidates)]
+    #[serde(rename = "agslam_candidates")]
+    pub candidates: usize,
+    /// agslam: keep H_train incrementally (each keyframe's Fisher added once) or recompute it
+    /// over every keyframe at each plan (full, as the authors' code; slower, same choices on
+    /// a settled map).
+    #[arg(long = "agslam-train", value_enum, default_value_t = TrainMode::Incremental)]
+    #[serde(rename = "agslam_train")]
+    pub train: TrainMode,
+}
+
+impl Default for AgslamOptions {
+    fn default() -> Self {
+        AgslamOptions {
+            pose_weight: AgslamConfig::default().pose_weight,
+            candidates: AgslamConfig::default().candidates,
+            train: TrainMode::Incremental,
+        }
+    }
+}
+
+/// Every planner's own settings (each planner reads its own; FBE and the survey have none
+/// to set).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, clap::Args)]
+pub struct PlannerOptions {
+    /// RT-GuIDE's.
+    #[command(flatten)]
+    #[serde(flatten)]
+    pub rtguide: RtGuideOptions,
+    /// AG-SLAM's.
+    #[command(flatten)]
+    #[serde(flatten)]
+    pub agslam: AgslamOptions,
 }
 
 /// What the planner needs of the episode to be built.
@@ -147,18 +219,19 @@ pub fn build(
             let mut config = PlannerConfig::default();
             config.mount.intrinsics = context.intrinsics;
             config.mount.range = context.range;
-            if !(options.rtguide_commit.is_finite() && options.rtguide_commit >= 0.0) {
+            let options = &options.rtguide;
+            if !(options.commit.is_finite() && options.commit >= 0.0) {
                 return Err(crate::error::SimError::InvalidArgument {
                     what: "--rtguide-commit",
-                    detail: format!("{}; give seconds, 0 or more", options.rtguide_commit),
+                    detail: format!("{}; give seconds, 0 or more", options.commit),
                 });
             }
-            config.commit_seconds = options.rtguide_commit;
-            config.free_space_edges = options.rtguide_free_space_edges;
-            config.frontier_regions = options.rtguide_frontier_regions;
-            config.frontiers_first = options.rtguide_frontiers_first;
-            config.finish_when_explored = options.rtguide_finish;
-            config.tour_viewpoints = options.rtguide_tour;
+            config.commit_seconds = options.commit;
+            config.free_space_edges = options.free_space_edges;
+            config.frontier_regions = options.frontier_regions;
+            config.frontiers_first = options.frontiers_first;
+            config.finish_when_explored = options.finish;
+            config.tour_viewpoints = options.tour;
             config.settled_omega = context.settled_omega;
             Box::new(RtGuidePlanner::new(config, CollisionEngine::Grid))
         }
@@ -171,12 +244,13 @@ pub fn build(
             CollisionEngine::Grid,
         )),
         PlannerKind::Agslam => {
+            let options = &options.agslam;
             for (what, ok) in [
                 (
                     "--pose-weight",
                     options.pose_weight.is_finite() && options.pose_weight >= 0.0,
                 ),
-                ("--agslam-candidates", options.agslam_candidates > 0),
+                ("--agslam-candidates", options.candidates > 0),
             ] {
                 if !ok {
                     return Err(crate::error::SimError::InvalidArgument {
@@ -192,9 +266,9 @@ pub fn build(
             };
             Box::new(AgslamPlanner::new(
                 AgslamConfig {
-                    candidates: options.agslam_candidates,
+                    candidates: options.candidates,
                     pose_weight: options.pose_weight,
-                    train: options.agslam_train,
+                    train: options.train,
                     seed: context.seed,
                     ..AgslamConfig::default()
                 },

@@ -99,8 +99,8 @@ fn rtguide_leaves_a_narrow_corridor_within_60_s_with_either_grid_extension() {
             60.0,
             out.clone(),
         );
-        config.planner_options.rtguide_frontier_regions = frontier_regions;
-        config.planner_options.rtguide_free_space_edges = free_space_edges;
+        config.planner_options.rtguide.frontier_regions = frontier_regions;
+        config.planner_options.rtguide.free_space_edges = free_space_edges;
         let metrics = run_episode(&config, &mut |_| {}).expect("episode");
         // The rooms are south of the corridor's wall at y = 0; the camera is in one when its
         // position is south of the wall's far face.

@@ -100,6 +100,13 @@ impl Controller {
         }
     }
 
+    /// Drives `schedule` from now on and drops the one waiting: a caller steers instead of
+    /// the planner, with nothing to wait out.
+    pub fn drive(&mut self, schedule: Schedule) {
+        self.current = schedule;
+        self.pending = None;
+    }
+
     fn active(&self) -> &Schedule {
         self.pending.as_ref().map_or(&self.current, |(p, _)| p)
     }

@@ -11,7 +11,7 @@ pub mod import;
 pub mod voxels;
 
 /// Which axis of a scene file points up.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum Up {
     /// Y up (OBJ's convention, Blender's default export).

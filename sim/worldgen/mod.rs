@@ -25,7 +25,7 @@ const AREA_INFLATION: f64 = 1.03;
 const MAX_CANDIDATES: u32 = 64;
 
 /// The kinds of world the generator makes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum WorldKind {
     /// 3-6 rooms joined by doors, 50-120 m2.

@@ -24,10 +24,12 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 /// How H_train is kept.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum TrainMode {
     /// Each keyframe's Fisher is added once, when it is taken (our deviation: cheap).
+    #[default]
     Incremental,
     /// Recomputed over every keyframe with the current map at each plan (the authors' code).
     Full,

@@ -67,8 +67,9 @@ pub struct MapperConfig {
 
 /// RT-GuIDE's uncertainty of a Gaussian from its displacement d in one mapping step: the
 /// L2 norm (the paper's choice), or its square (RTGuIDE-sq, eq 7 as derived; Table II).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum UncertaintyNorm {
     /// |d|.
     #[default]

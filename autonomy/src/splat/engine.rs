@@ -7,7 +7,9 @@ use crate::gaussians::{Gaussians, Gradients};
 use std::str::FromStr;
 
 /// What the user asked for (`--engine`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum EngineChoice {
     /// The GPU engine on a hardware GPU, else the CPU engine.
     #[default]

@@ -1,0 +1,133 @@
+//! The end of an episode: the map's files, the evaluation on the hidden test set,
+//! trajectory.png, metrics.json, and the episode folder moved into place.
+
+use super::listen::TickEvent;
+use super::metrics::{percentiles, Metrics};
+use super::tick::Episode;
+use super::{peak_memory_bytes, EpisodeFile, POINT_CLOUD};
+use crate::error::{Result, SimError};
+use crate::evaluate::{evaluate, Evaluation};
+use crate::record::Versions;
+
+impl Episode {
+    /// Evaluates the map and writes the episode folder (map.ply, points.ply, trajectory.png,
+    /// metrics.json, episode.json), whether the episode ran to its end or not: one stopped
+    /// early by its caller says so in `ended`.
+    pub fn finish(mut self) -> Result<Metrics> {
+        let ended = self
+            .ended
+            .take()
+            .unwrap_or_else(|| format!("stopped by the caller at t = {:.1} s", self.time()));
+        self.tally.path.push(self.world.pose());
+        self.write_map()?;
+        let simulated = self.time();
+        let final_pose = self.world.pose();
+        let evaluation = evaluate(
+            &self.world,
+            &mut self.camera,
+            self.mapper.engine(),
+            self.mapper.map(),
+            &self.tests,
+        )?;
+        if !self.tests.surface.is_empty() {
+            self.coverage_over_time
+                .push([simulated, evaluation.coverage]);
+        }
+        self.write_trajectory_png(simulated, &evaluation)?;
+        let metrics = self.metrics(simulated, ended, evaluation);
+        let mut listeners = std::mem::take(&mut self.listeners.others);
+        let finished = TickEvent::Finished {
+            time: simulated,
+            coverage: metrics.evaluation.coverage,
+        };
+        for listener in &mut listeners {
+            listener.hear(&finished)?;
+        }
+        if let Some(mut log) = self.listeners.rerun.take() {
+            use super::listen::TickListener;
+            log.hear(&finished)?;
+            log.finish()?;
+        }
+        let writer = self.listeners.writer;
+        crate::dataset::write_json(&writer.dir().join("metrics.json"), &metrics)?;
+        writer.finish(&EpisodeFile {
+            command: "run",
+            config: &self.config,
+            versions: Versions::current(&self.gl),
+            start_pose: self.start_pose,
+            final_pose,
+            planner_settings: self.planner_settings,
+        })?;
+        Ok(metrics)
+    }
+
+    /// points.ply (the means, for nerfstudio) and map.ply.
+    fn write_map(&self) -> Result<()> {
+        let dir = self.listeners.writer.dir();
+        let map = self.mapper.map();
+        crate::dataset::write_point_cloud(
+            &dir.join(POINT_CLOUD),
+            &map.gaussians.means,
+            &map.gaussians.colours,
+        )?;
+        autonomy::ply::write_with_sh_degree(map, &dir.join("map.ply"), self.config.ply_sh_degree)
+            .map_err(|e| SimError::Mapping(e.to_string()))
+    }
+
+    /// The top-down picture of the path and the map, titled with the scores.
+    fn write_trajectory_png(&self, simulated: f64, evaluation: &Evaluation) -> Result<()> {
+        let world = &self.config.world;
+        let title = format!(
+            "{} | {} | {:.0} of {:.0} s | coverage {:.1}% | PSNR {:.1} dB",
+            world.file_name().map_or_else(
+                || world.display().to_string(),
+                |n| n.to_string_lossy().into_owned()
+            ),
+            self.config.planner.name(),
+            simulated,
+            self.config.budget,
+            100.0 * evaluation.coverage,
+            evaluation.psnr
+        );
+        crate::plot::write_trajectory_png(
+            &self.listeners.writer.dir().join("trajectory.png"),
+            &self.world,
+            &self.tally.path,
+            self.mapper.map(),
+            &title,
+        )
+        .map(|_extent| ())
+    }
+
+    /// metrics.json's contents.
+    fn metrics(&self, simulated: f64, ended: String, evaluation: Evaluation) -> Metrics {
+        let wall_seconds = self.wall.elapsed().as_secs_f64();
+        let times = &self.tally.times;
+        Metrics {
+            simulated_seconds: simulated,
+            wall_seconds,
+            real_time_factor: simulated / wall_seconds,
+            path_length: self.tally.path_length,
+            camera_path_length: self.tally.camera_path_length,
+            collision_steps: self.tally.collision_steps,
+            recovery_events: self.control.recovery_events,
+            late_plans: self.control.late_plans,
+            start_pose_error: percentiles(self.control.start_pose_errors.clone()),
+            plan_failures: self.control.failures.clone(),
+            gaussians: self.mapper.map().len(),
+            frames: self.listeners.writer.frame_count(),
+            mapping_steps: self.mapper.steps(),
+            mapping: percentiles(times.mapping.clone()),
+            planning: percentiles(times.planning.clone()),
+            camera: percentiles(times.camera.clone()),
+            physics: percentiles(times.physics.clone()),
+            engine: self.engine_name.clone(),
+            planner: self.config.planner.name(),
+            planner_settings: self.planner_settings.clone(),
+            ended,
+            peak_memory_bytes: peak_memory_bytes(),
+            evaluation,
+            coverage_over_time: self.coverage_over_time.clone(),
+        }
+    }
+}
