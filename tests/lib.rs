@@ -5,6 +5,7 @@ mod dataset;
 mod drive;
 mod egl;
 mod episode;
+mod library;
 mod nothing_lost;
 mod planners;
 mod recording;
