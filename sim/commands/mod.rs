@@ -5,21 +5,21 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
-mod bench;
+pub mod bench;
 mod eval;
-mod progress;
+pub(crate) mod progress;
 mod record;
 mod render;
-mod run;
-mod sweep;
-mod world;
+pub(crate) mod run;
+pub mod sweep;
+pub(crate) mod world;
 
-pub use bench::{BenchArgs, BenchTarget};
+pub use bench::cli::{BenchArgs, BenchTarget};
 pub use eval::EvalArgs;
 pub use record::RecordArgs;
 pub use render::RenderArgs;
 pub use run::{RunArgs, RunOptions, ViewArgs};
-pub use sweep::{SweepArgs, SweepBackend};
+pub use sweep::cli::{SweepArgs, SweepBackend};
 pub use world::WorldCommand;
 
 /// Headless closed-loop active mapping: a MuJoCo unicycle robot with an offscreen RGB-D
@@ -91,10 +91,10 @@ pub fn run(command: Command) -> Result<Option<u8>> {
     match command {
         Command::Record(args) => done(record::record(args)),
         Command::Run(args) => run::run(args),
-        Command::Sweep(args) => sweep::sweep(args),
+        Command::Sweep(args) => sweep::cli::sweep(args),
         Command::Eval(args) => done(eval::eval(args)),
         Command::Render(args) => done(render::render(args)),
         Command::World(command) => done(world::world(command)),
-        Command::Bench(args) => done(bench::bench(args)),
+        Command::Bench(args) => done(bench::cli::bench(args)),
     }
 }

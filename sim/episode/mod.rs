@@ -17,6 +17,12 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
+pub mod controls;
+pub mod evaluate;
+pub mod planners;
+pub mod record;
+pub mod survey;
+
 mod control;
 mod finish;
 mod listen;

@@ -1,4 +1,8 @@
-//! `splatloop bench sensor`: RGB-D frames per second and physics steps per second.
+//! `splatloop bench`: what each benchmark measures (here: sensor, render, loss, map, plan,
+//! planners), `worlds` (generation and import), `cli` (the flags and the printed tables).
+
+pub mod cli;
+pub mod worlds;
 
 use crate::camera::SensorConfig;
 use crate::egl::EglContext;

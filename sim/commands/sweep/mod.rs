@@ -2,6 +2,7 @@
 //! each `splatloop run` in its own folder `OUT/WORLD/PLANNER/SEED/`, with the results gathered
 //! into one table, a summary and charts.
 //!
+//! - `cli` — the command's flags and its output for a person.
 //! - `spec` — what a sweep is (sweep.json), its episodes in a fixed order, their folders, their
 //!   state on disk and their command lines.
 //! - `execute` — running a batch of episodes: locally N at a time, or as Ray tasks; the
@@ -11,6 +12,7 @@
 //! - `charts` — summary.png and coverage_over_time.png.
 
 pub mod charts;
+pub mod cli;
 pub mod execute;
 pub mod results;
 pub mod slurm;

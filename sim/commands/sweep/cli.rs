@@ -1,8 +1,8 @@
 //! `splatloop sweep`: worlds x planners x seeds as separate episodes, locally, on Ray or
 //! under Slurm, then the results.
 
-use super::progress::Progress;
-use super::run::RunOptions;
+use crate::commands::progress::Progress;
+use crate::commands::run::RunOptions;
 use crate::episode::PlannerKind;
 use anyhow::{Context, Result};
 use clap::{Subcommand, ValueEnum};
@@ -58,6 +58,7 @@ pub struct SweepArgs {
     cpus_per_episode: usize,
 }
 
+/// A sweep's single steps, for clusters and for gathering by hand.
 #[derive(Subcommand)]
 pub enum SweepStep {
     /// Run one episode of the sweep in OUT by its index (a Slurm array task's command);
@@ -90,6 +91,8 @@ pub enum SweepBackend {
     Slurm,
 }
 
+/// Runs, resumes, or takes one step of a sweep; `Some(code)` is never returned today (a
+/// sweep stopped by a signal exits through its error).
 pub fn sweep(args: SweepArgs) -> Result<Option<u8>> {
     use crate::sweep::{self, Backend, Sweep, SweepSpec};
     let binary = std::env::current_exe().context("cannot find the splatloop binary")?;

@@ -1,6 +1,6 @@
 //! `splatloop bench`: measures and prints a table.
 
-use super::world::tempfile_dir;
+use crate::commands::world::tempfile_dir;
 use anyhow::Result;
 use autonomy::splat::{EngineChoice, Rasteriser};
 use clap::ValueEnum;
