@@ -190,75 +190,92 @@ pub fn world(command: WorldCommand) -> Result<()> {
             out,
             per_kind,
             overwrite,
-        } => {
-            let mut manifest = Vec::new();
-            for kind in WorldKind::ALL {
-                for seed in 1..=per_kind {
-                    let file = out.join(format!("{}_{seed:02}.xml", kind.name()));
-                    let config = GenerateConfig {
-                        kind,
-                        seed,
-                        area: None,
-                        out: file,
-                        overwrite,
-                    };
-                    let world = generate(&config, &mut say_rejected)
-                        .with_context(|| format!("generating {} failed", config.out.display()))?;
-                    println!(
-                        "wrote {}: {:.1} m2, {} rooms",
-                        world.file.display(),
-                        world.area,
-                        world.rooms
-                    );
-                    manifest.push(serde_json::json!({
-                        "file": world.file.file_name().map(|n| n.to_string_lossy().into_owned()),
-                        "kind": kind.name(),
-                        "seed": seed,
-                        "sub_seed": world.sub_seed,
-                        "area_m2": (world.area * 10.0).round() / 10.0,
-                        "rooms": world.rooms,
-                        "doors": world.doors,
-                        "regions": world.report.regions,
-                    }));
-                }
-            }
-            let path = out.join("manifest.json");
-            std::fs::write(&path, serde_json::to_string_pretty(&manifest)? + "\n")
-                .with_context(|| format!("cannot write {}", path.display()))?;
-            println!("wrote {}", path.display());
-            Ok(())
-        }
+        } => suite(&out, per_kind, overwrite, &mut say_rejected),
         WorldCommand::Check {
             world,
             spawn,
             json,
             plot,
-        } => {
-            let mut loaded = crate::world::World::load(&world, &SensorConfig::default())
-                .with_context(|| format!("checking {} failed", world.display()))?;
-            if let Some(pose) = spawn {
-                loaded.set_start(pose);
-            }
-            let (report, plan) = crate::world_check::check_world(&loaded)?;
-            if let Some(png) = &plot {
-                let reachable = plan.reachable_from(report.spawn.x, report.spawn.y);
-                crate::plot::write_floor_plan_png(png, &plan, &reachable, report.spawn)?;
-            }
-            if json {
-                println!("{}", serde_json::to_string_pretty(&report)?);
-            } else {
-                print_world_report(&world, &report);
-            }
-            if !report.ok() {
-                anyhow::bail!(
-                    "{} has {} problem(s)",
-                    world.display(),
-                    report.problems.len()
-                );
-            }
-            Ok(())
+        } => check(&world, spawn, json, plot.as_deref()),
+    }
+}
+
+/// `world suite`: PER_KIND worlds of each kind and their manifest.json.
+fn suite(
+    out: &std::path::Path,
+    per_kind: u64,
+    overwrite: bool,
+    say_rejected: &mut dyn FnMut(u32, &str),
+) -> Result<()> {
+    use crate::worldgen::generate;
+    let mut manifest = Vec::new();
+    for kind in WorldKind::ALL {
+        for seed in 1..=per_kind {
+            let file = out.join(format!("{}_{seed:02}.xml", kind.name()));
+            let config = GenerateConfig {
+                kind,
+                seed,
+                area: None,
+                out: file,
+                overwrite,
+            };
+            let world = generate(&config, say_rejected)
+                .with_context(|| format!("generating {} failed", config.out.display()))?;
+            println!(
+                "wrote {}: {:.1} m2, {} rooms",
+                world.file.display(),
+                world.area,
+                world.rooms
+            );
+            manifest.push(serde_json::json!({
+                "file": world.file.file_name().map(|n| n.to_string_lossy().into_owned()),
+                "kind": kind.name(),
+                "seed": seed,
+                "sub_seed": world.sub_seed,
+                "area_m2": (world.area * 10.0).round() / 10.0,
+                "rooms": world.rooms,
+                "doors": world.doors,
+                "regions": world.report.regions,
+            }));
         }
     }
+    let path = out.join("manifest.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&manifest)? + "\n")
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// `world check`: the report, the floor plan picture when asked, non-zero exit on problems.
+fn check(
+    world: &std::path::Path,
+    spawn: Option<Pose2>,
+    json: bool,
+    plot: Option<&std::path::Path>,
+) -> Result<()> {
+    let mut loaded = crate::world::World::load(world, &SensorConfig::default())
+        .with_context(|| format!("checking {} failed", world.display()))?;
+    if let Some(pose) = spawn {
+        loaded.set_start(pose);
+    }
+    let (report, plan) = crate::world_check::check_world(&loaded)?;
+    if let Some(png) = plot {
+        let reachable = plan.reachable_from(report.spawn.x, report.spawn.y);
+        crate::plot::write_floor_plan_png(png, &plan, &reachable, report.spawn)?;
+    }
+    if json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print_world_report(world, &report);
+    }
+    if !report.ok() {
+        anyhow::bail!(
+            "{} has {} problem(s)",
+            world.display(),
+            report.problems.len()
+        );
+    }
+    Ok(())
 }
 
 fn print_world_report(path: &std::path::Path, r: &crate::world_check::WorldReport) {

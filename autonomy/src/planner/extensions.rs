@@ -245,7 +245,12 @@ impl RtGuidePlanner {
     /// worth `omega` for a frontier a region's side long and in proportion for shorter ones;
     /// none where the robot stands or for a frontier cleared before, nor for one given up
     /// before while any other frontier is offered.
-    pub(super) fn add_frontier_viewpoints(&mut self, view: &FrontierView, robot: Pose2, omega: f64) {
+    pub(super) fn add_frontier_viewpoints(
+        &mut self,
+        view: &FrontierView,
+        robot: Pose2,
+        omega: f64,
+    ) {
         self.offer_frontiers(view, robot, omega);
         if self.frontier_offers.is_empty() && !self.set_aside_frontiers.is_empty() {
             self.set_aside_frontiers.clear();

@@ -64,156 +64,175 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         engine,
     } = args;
     match what {
-        BenchTarget::Render => {
-            for rasteriser in distinct_engines(&engine) {
-                let name = rasteriser.describe();
-                let rows = crate::bench::bench_render(
-                    &rasteriser,
-                    &[(320, 240), (640, 480)],
-                    &gaussians,
-                    iterations.max(1),
-                )?;
-                print_render_bench(&name, &rows);
-            }
-            Ok(())
-        }
-        BenchTarget::Loss => {
-            let rows = crate::bench::bench_loss(&[(320, 240), (640, 480)], iterations);
-            println!("threads: {}", rayon::current_num_threads());
-            println!("| resolution | reference ms | SIMD ms | speed-up |");
-            println!("|---|---:|---:|---:|");
-            for r in &rows {
-                println!(
-                    "| {}x{} | {:.2} | {:.2} | {:.1}x |",
-                    r.resolution.0,
-                    r.resolution.1,
-                    r.reference * 1e3,
-                    r.simd * 1e3,
-                    r.reference / r.simd
-                );
-            }
-            Ok(())
-        }
-        BenchTarget::Plan => {
-            let counts = if gaussians == [10_000, 100_000, 1_000_000] {
-                vec![10_000, 100_000, 1_000_000, 3_000_000]
-            } else {
-                gaussians.clone()
-            };
-            let gpu = engine.iter().any(|e| *e != EngineChoice::Cpu);
-            let rows = crate::bench::bench_plan(&counts, 100_000, gpu);
-            println!("| Gaussians | collision engine | first plan ms | plan ms (median of 3, upkeep included) | sync+graph ms | search ms | information ms | segments |");
-            println!("|---:|---|---:|---:|---:|---:|---:|---:|");
-            for r in &rows {
-                println!(
-                    "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} |",
-                    r.gaussians,
-                    r.engine,
-                    r.first * 1e3,
-                    r.plan * 1e3,
-                    r.stages[0] * 1e3,
-                    r.stages[1] * 1e3,
-                    r.stages[2] * 1e3,
-                    r.segments
-                );
-            }
-            let (build, score, brute) = crate::bench::bench_viewpoints(1_000_000, 500);
-            println!(
-                    "500 viewpoints over 1e6 Gaussians: grid build {:.1} ms, scoring {:.2} ms ({:.1} us each); brute force {:.2} ms each",
-                    build * 1e3,
-                    score * 1e3,
-                    score * 1e6 / 500.0,
-                    brute * 1e3
-                );
-            Ok(())
-        }
-        BenchTarget::Planners => {
-            let candidates = autonomy::explore::agslam::AgslamConfig::default().candidates;
-            println!("| Gaussians | planner | plan ms (median of 3) | candidates | outcome |");
-            println!("|---:|---|---:|---:|---|");
-            for r in crate::bench::bench_planners(&gaussians, candidates) {
-                println!(
-                    "| {} | {} | {:.1} | {} | {} |",
-                    r.gaussians,
-                    r.planner,
-                    r.plan * 1e3,
-                    r.candidates,
-                    r.outcome
-                );
-            }
-            Ok(())
-        }
-        BenchTarget::World => {
-            let dir = tempfile_dir()?;
-            let rows = crate::bench_worlds::bench_generate(&dir, 4)?;
-            println!(
-                "| kind | seed | candidates | floor m2 | collidable geoms | generate + check ms |"
-            );
-            println!("|---|---:|---:|---:|---:|---:|");
-            for r in &rows {
-                println!(
-                    "| {} | {} | {} | {:.1} | {} | {:.0} |",
-                    r.kind.name(),
-                    r.seed,
-                    r.candidates,
-                    r.area,
-                    r.geoms,
-                    r.seconds * 1e3
-                );
-            }
-            let scene = if world == std::path::Path::new("worlds/room.xml") {
-                std::path::PathBuf::from("worlds/suite/apartment_03.xml")
-            } else {
-                world
-            };
-            let imports = crate::bench_worlds::bench_import(&scene, &dir, &[100_000, 1_000_000])?;
-            println!("import of {} exported and subdivided:", scene.display());
-            println!("| triangles | meshes | solid voxels | collider boxes | import s |");
-            println!("|---:|---:|---:|---:|---:|");
-            for (seconds, s) in &imports {
-                println!(
-                    "| {} | {} | {} | {} | {:.2} |",
-                    s.triangles, s.meshes, s.voxels, s.colliders, seconds
-                );
-            }
-            let _ = std::fs::remove_dir_all(&dir);
-            Ok(())
-        }
-        BenchTarget::Map => {
-            for rasteriser in distinct_engines(&engine) {
-                let name = rasteriser.describe();
-                let (rows, quality) = crate::bench::bench_map(rasteriser, 320, 240, 10)?;
-                print_map_bench(&name, &rows, &quality);
-            }
-            Ok(())
-        }
-        BenchTarget::Sensor => {
-            let (device, rows) = crate::bench::bench_sensor(&world, frames.max(1))?;
-            println!("device: {device}");
-            println!("| what | count | seconds | per second | x baseline |");
-            println!("|---|---:|---:|---:|---:|");
-            let baseline = rows
-                .iter()
-                .find(|r| r.what.contains("baseline"))
-                .map(|r| r.rate());
-            for row in &rows {
-                let ratio = match baseline {
-                    Some(b) if row.what.starts_with("RGB-D") => {
-                        format!("{:.1}", row.rate() / b)
-                    }
-                    _ => String::from("-"),
-                };
-                println!(
-                    "| {} | {} | {:.3} | {:.1} | {ratio} |",
-                    row.what,
-                    row.count,
-                    row.seconds,
-                    row.rate()
-                );
-            }
-            Ok(())
-        }
+        BenchTarget::Render => render(&engine, &gaussians, iterations),
+        BenchTarget::Loss => loss(iterations),
+        BenchTarget::Plan => plan(&engine, &gaussians),
+        BenchTarget::Planners => planners(&gaussians),
+        BenchTarget::World => worlds(world),
+        BenchTarget::Map => map(&engine),
+        BenchTarget::Sensor => sensor(&world, frames),
     }
+}
+
+/// One mapping iteration per engine, resolution and Gaussian count.
+fn render(engine: &[EngineChoice], gaussians: &[usize], iterations: usize) -> Result<()> {
+    for rasteriser in distinct_engines(engine) {
+        let name = rasteriser.describe();
+        let rows = crate::bench::bench_render(
+            &rasteriser,
+            &[(320, 240), (640, 480)],
+            gaussians,
+            iterations.max(1),
+        )?;
+        print_render_bench(&name, &rows);
+    }
+    Ok(())
+}
+
+/// The mapping loss: the reference against the SIMD version.
+fn loss(iterations: usize) -> Result<()> {
+    let rows = crate::bench::bench_loss(&[(320, 240), (640, 480)], iterations);
+    println!("threads: {}", rayon::current_num_threads());
+    println!("| resolution | reference ms | SIMD ms | speed-up |");
+    println!("|---|---:|---:|---:|");
+    for r in &rows {
+        println!(
+            "| {}x{} | {:.2} | {:.2} | {:.1}x |",
+            r.resolution.0,
+            r.resolution.1,
+            r.reference * 1e3,
+            r.simd * 1e3,
+            r.reference / r.simd
+        );
+    }
+    Ok(())
+}
+
+/// RT-GuIDE plans per collision engine, and viewpoint scoring.
+fn plan(engine: &[EngineChoice], gaussians: &[usize]) -> Result<()> {
+    let counts = if gaussians == [10_000, 100_000, 1_000_000] {
+        vec![10_000, 100_000, 1_000_000, 3_000_000]
+    } else {
+        gaussians.to_vec()
+    };
+    let gpu = engine.iter().any(|e| *e != EngineChoice::Cpu);
+    let rows = crate::bench::bench_plan(&counts, 100_000, gpu);
+    println!("| Gaussians | collision engine | first plan ms | plan ms (median of 3, upkeep included) | sync+graph ms | search ms | information ms | segments |");
+    println!("|---:|---|---:|---:|---:|---:|---:|---:|");
+    for r in &rows {
+        println!(
+            "| {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {} |",
+            r.gaussians,
+            r.engine,
+            r.first * 1e3,
+            r.plan * 1e3,
+            r.stages[0] * 1e3,
+            r.stages[1] * 1e3,
+            r.stages[2] * 1e3,
+            r.segments
+        );
+    }
+    let (build, score, brute) = crate::bench::bench_viewpoints(1_000_000, 500);
+    println!(
+            "500 viewpoints over 1e6 Gaussians: grid build {:.1} ms, scoring {:.2} ms ({:.1} us each); brute force {:.2} ms each",
+            build * 1e3,
+            score * 1e3,
+            score * 1e6 / 500.0,
+            brute * 1e3
+        );
+    Ok(())
+}
+
+/// A plan of each planner.
+fn planners(gaussians: &[usize]) -> Result<()> {
+    let candidates = autonomy::explore::agslam::AgslamConfig::default().candidates;
+    println!("| Gaussians | planner | plan ms (median of 3) | candidates | outcome |");
+    println!("|---:|---|---:|---:|---|");
+    for r in crate::bench::bench_planners(gaussians, candidates) {
+        println!(
+            "| {} | {} | {:.1} | {} | {} |",
+            r.gaussians,
+            r.planner,
+            r.plan * 1e3,
+            r.candidates,
+            r.outcome
+        );
+    }
+    Ok(())
+}
+
+/// World generation per kind, and imports of large scenes.
+fn worlds(world: PathBuf) -> Result<()> {
+    let dir = tempfile_dir()?;
+    let rows = crate::bench_worlds::bench_generate(&dir, 4)?;
+    println!("| kind | seed | candidates | floor m2 | collidable geoms | generate + check ms |");
+    println!("|---|---:|---:|---:|---:|---:|");
+    for r in &rows {
+        println!(
+            "| {} | {} | {} | {:.1} | {} | {:.0} |",
+            r.kind.name(),
+            r.seed,
+            r.candidates,
+            r.area,
+            r.geoms,
+            r.seconds * 1e3
+        );
+    }
+    let scene = if world == std::path::Path::new("worlds/room.xml") {
+        std::path::PathBuf::from("worlds/suite/apartment_03.xml")
+    } else {
+        world
+    };
+    let imports = crate::bench_worlds::bench_import(&scene, &dir, &[100_000, 1_000_000])?;
+    println!("import of {} exported and subdivided:", scene.display());
+    println!("| triangles | meshes | solid voxels | collider boxes | import s |");
+    println!("|---:|---:|---:|---:|---:|");
+    for (seconds, s) in &imports {
+        println!(
+            "| {} | {} | {} | {} | {:.2} |",
+            s.triangles, s.meshes, s.voxels, s.colliders, seconds
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
+
+/// Mapping steps as an apartment's map grows, per engine.
+fn map(engine: &[EngineChoice]) -> Result<()> {
+    for rasteriser in distinct_engines(engine) {
+        let name = rasteriser.describe();
+        let (rows, quality) = crate::bench::bench_map(rasteriser, 320, 240, 10)?;
+        print_map_bench(&name, &rows, &quality);
+    }
+    Ok(())
+}
+
+/// Camera frames and physics steps per second.
+fn sensor(world: &std::path::Path, frames: usize) -> Result<()> {
+    let (device, rows) = crate::bench::bench_sensor(world, frames.max(1))?;
+    println!("device: {device}");
+    println!("| what | count | seconds | per second | x baseline |");
+    println!("|---|---:|---:|---:|---:|");
+    let baseline = rows
+        .iter()
+        .find(|r| r.what.contains("baseline"))
+        .map(|r| r.rate());
+    for row in &rows {
+        let ratio = match baseline {
+            Some(b) if row.what.starts_with("RGB-D") => {
+                format!("{:.1}", row.rate() / b)
+            }
+            _ => String::from("-"),
+        };
+        println!(
+            "| {} | {} | {:.3} | {:.1} | {ratio} |",
+            row.what,
+            row.count,
+            row.seconds,
+            row.rate()
+        );
+    }
+    Ok(())
 }
 
 /// The engines `choices` resolve to, each once: `auto` on a machine without a hardware GPU is
