@@ -257,6 +257,28 @@ pub fn summary(sweep: &Sweep, columns: &[String], rows: &[Row]) -> String {
     let complete: Vec<&Row> = rows.iter().filter(|r| r.status == "complete").collect();
     let failed: Vec<&Row> = rows.iter().filter(|r| r.status == "failed").collect();
     let mut md = String::from("# Sweep summary\n\n");
+    write_protocol(&mut md, sweep, rows, complete.len(), failed.len());
+    let names = planners(rows);
+    write_per_planner(&mut md, columns, &names, &complete);
+    write_per_world(&mut md, rows, &names, &complete);
+    for (reference, title) in [("rtguide", "RT-GuIDE"), ("survey", "the survey")] {
+        write_against(&mut md, reference, title, &names, &complete);
+    }
+    write_failed(&mut md, &failed);
+    md
+}
+
+/// The complete episodes of planner `p`.
+fn of_planner<'a>(complete: &[&'a Row], p: &str) -> Vec<&'a Row> {
+    complete
+        .iter()
+        .copied()
+        .filter(|r| r.planner == p)
+        .collect()
+}
+
+/// The counts, the budget, surveys cut short and the run options.
+fn write_protocol(md: &mut String, sweep: &Sweep, rows: &[Row], complete: usize, failed: usize) {
     let _ = writeln!(
         md,
         "{} episodes ({} worlds x {} planners x {} seeds): {} complete, {} failed, {} not run.",
@@ -264,9 +286,9 @@ pub fn summary(sweep: &Sweep, columns: &[String], rows: &[Row]) -> String {
         sweep.spec.worlds.len(),
         planners(rows).len(),
         sweep.spec.seeds.len(),
-        complete.len(),
-        failed.len(),
-        rows.len() - complete.len() - failed.len()
+        complete,
+        failed,
+        rows.len() - complete - failed
     );
     let budget = match sweep.spec.budget {
         Budget::Seconds(s) => format!("{s} simulated seconds each"),
@@ -295,17 +317,13 @@ pub fn summary(sweep: &Sweep, columns: &[String], rows: &[Row]) -> String {
         "Run options: `{}`\n",
         option_words(&sweep.spec.run_options).join(" ")
     );
+}
 
-    let names = planners(rows);
-    let by_planner = |p: &str| -> Vec<&Row> {
-        complete
-            .iter()
-            .copied()
-            .filter(|r| r.planner == p)
-            .collect()
-    };
+/// Each figure per planner: mean, sd, min and max.
+fn write_per_planner(md: &mut String, columns: &[String], names: &[&str], complete: &[&Row]) {
+    let by_planner = |p: &str| of_planner(complete, p);
     md.push_str("## Per planner\n\nMean ± sample standard deviation [min, max] over the complete episodes; timing figures (wall time, memory) are this machine's.\n\n| figure |");
-    for p in &names {
+    for p in names {
         let _ = write!(md, " {p} (n = {}) |", by_planner(p).len());
     }
     md.push_str("\n|---|");
@@ -344,7 +362,10 @@ pub fn summary(sweep: &Sweep, columns: &[String], rows: &[Row]) -> String {
         }
         md.push('\n');
     }
+}
 
+/// The headline figures' means per world and planner.
+fn write_per_world(md: &mut String, rows: &[Row], names: &[&str], complete: &[&Row]) {
     md.push_str(
         "\n## Per world\n\nMeans over the complete episodes.\n\n| world | kind | planner | n |",
     );
@@ -361,7 +382,7 @@ pub fn summary(sweep: &Sweep, columns: &[String], rows: &[Row]) -> String {
         }
     }
     for (world, kind) in &worlds {
-        for p in &names {
+        for p in names {
             let group: Vec<&Row> = complete
                 .iter()
                 .copied()
@@ -383,54 +404,59 @@ pub fn summary(sweep: &Sweep, columns: &[String], rows: &[Row]) -> String {
             md.push('\n');
         }
     }
+}
 
-    for (reference, title) in [("rtguide", "RT-GuIDE"), ("survey", "the survey")] {
-        let _ = writeln!(md, "\n## Against {title}\n");
-        if !names.contains(&reference) {
-            let _ = writeln!(md, "{title} is not in this sweep.");
-            continue;
-        }
-        let _ = writeln!(
-            md,
-            "Mean ± sd of (planner - {reference}) over matched episodes: the same world and seed, both complete.\n"
-        );
-        md.push_str("| planner | pairs |");
-        for (_, heading, _) in HEADLINE {
-            let _ = write!(md, " Δ {heading} |");
-        }
-        md.push_str("\n|---|---:|");
-        md.push_str(&"---:|".repeat(HEADLINE.len()));
-        md.push('\n');
-        for p in names.iter().filter(|p| **p != reference) {
-            let pairs: Vec<(&Row, &Row)> = by_planner(p)
-                .into_iter()
-                .filter_map(|r| {
-                    complete
-                        .iter()
-                        .find(|o| o.planner == reference && o.world == r.world && o.seed == r.seed)
-                        .map(|o| (r, *o))
-                })
-                .collect();
-            let _ = write!(md, "| {p} | {} |", pairs.len());
-            for (column, _, scale) in HEADLINE {
-                let deltas: Vec<f64> = pairs
-                    .iter()
-                    .filter_map(|(a, b)| Some(scale * (a.number(column)? - b.number(column)?)))
-                    .collect();
-                match spread(&deltas) {
-                    Some(s) => {
-                        let _ = write!(md, " {:+.2} ± {:.2} |", s.mean, s.sd);
-                    }
-                    None => md.push_str(" |"),
-                }
-            }
-            md.push('\n');
-        }
+/// Each planner minus `reference` over matched episodes.
+fn write_against(md: &mut String, reference: &str, title: &str, names: &[&str], complete: &[&Row]) {
+    let by_planner = |p: &str| of_planner(complete, p);
+    let _ = writeln!(md, "\n## Against {title}\n");
+    if !names.contains(&reference) {
+        let _ = writeln!(md, "{title} is not in this sweep.");
+        return;
     }
+    let _ = writeln!(
+        md,
+        "Mean ± sd of (planner - {reference}) over matched episodes: the same world and seed, both complete.\n"
+    );
+    md.push_str("| planner | pairs |");
+    for (_, heading, _) in HEADLINE {
+        let _ = write!(md, " Δ {heading} |");
+    }
+    md.push_str("\n|---|---:|");
+    md.push_str(&"---:|".repeat(HEADLINE.len()));
+    md.push('\n');
+    for p in names.iter().filter(|p| **p != reference) {
+        let pairs: Vec<(&Row, &Row)> = by_planner(p)
+            .into_iter()
+            .filter_map(|r| {
+                complete
+                    .iter()
+                    .find(|o| o.planner == reference && o.world == r.world && o.seed == r.seed)
+                    .map(|o| (r, *o))
+            })
+            .collect();
+        let _ = write!(md, "| {p} | {} |", pairs.len());
+        for (column, _, scale) in HEADLINE {
+            let deltas: Vec<f64> = pairs
+                .iter()
+                .filter_map(|(a, b)| Some(scale * (a.number(column)? - b.number(column)?)))
+                .collect();
+            match spread(&deltas) {
+                Some(s) => {
+                    let _ = write!(md, " {:+.2} ± {:.2} |", s.mean, s.sd);
+                }
+                None => md.push_str(" |"),
+            }
+        }
+        md.push('\n');
+    }
+}
 
+/// The failed episodes with the first line of their error.
+fn write_failed(md: &mut String, failed: &[&Row]) {
     if !failed.is_empty() {
         md.push_str("\n## Failed episodes\n\n");
-        for r in &failed {
+        for r in failed {
             let error = r.cells.get("error").map_or("", String::as_str);
             let _ = writeln!(
                 md,
@@ -443,7 +469,6 @@ pub fn summary(sweep: &Sweep, columns: &[String], rows: &[Row]) -> String {
             );
         }
     }
-    md
 }
 
 /// Gathers the results and writes results.csv, summary.md, summary.png and
