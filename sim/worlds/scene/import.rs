@@ -6,7 +6,7 @@
 //! collision). Everything is written under temporary names and takes its place only when the
 //! world compiles and its spawn is free: a failure leaves nothing behind.
 
-use super::voxels::Voxels;
+use super::voxels::{Cuboid, Voxels};
 use super::Up;
 use crate::camera::SensorConfig;
 use crate::error::{Result, SimError};
@@ -87,6 +87,54 @@ fn bad_scene(path: &Path, detail: String) -> SimError {
 
 /// Imports a scene; see the module documentation.
 pub fn import_scene(config: &ImportConfig) -> Result<ImportSummary> {
+    let (scene_dir, models, materials) = read_scene(config)?;
+    let (mut pieces, mut lo, mut hi, triangles) = world_triangles(config, &models)?;
+    let floor = match config.floor {
+        Some(z) if z.is_finite() => z,
+        Some(z) => return Err(SimError::InvalidArgument { what: "floor", detail: format!("{z}; give the floor's height in metres") }),
+        None => find_floor(&pieces, lo[2], hi[2]).ok_or_else(|| bad_scene(&config.scene, format!(
+        "no floor: no horizontal surface of {MIN_FLOOR_AREA} m2 or more in the lowest third of the scene; check --up ({} now) or give its height with --floor", match config.up { Up::Y => "y", Up::Z => "z" }
+    )))?,
+    };
+    for piece in &mut pieces {
+        for t in &mut piece.triangles {
+            for p in t.iter_mut() {
+                p[2] -= floor;
+            }
+        }
+    }
+    lo[2] -= floor;
+    hi[2] -= floor;
+
+    let (voxels, colliders) = voxelise(&pieces, lo, hi);
+    let spawn = write_world(
+        config,
+        &pieces,
+        &materials,
+        &scene_dir,
+        &colliders,
+        (lo, hi),
+    )?;
+    Ok(ImportSummary {
+        out: config.out.clone(),
+        bounds: (lo, hi),
+        triangles,
+        meshes: pieces.len(),
+        materials: materials.len(),
+        textures: materials
+            .iter()
+            .filter(|m| m.diffuse_texture.is_some())
+            .count(),
+        colliders: colliders.len(),
+        voxels: voxels.count(),
+        floor_height: floor,
+        spawn,
+    })
+}
+
+/// Checks the arguments and reads the OBJ, its MTL and its textures' names: the scene's
+/// folder, its models and its materials.
+fn read_scene(config: &ImportConfig) -> Result<(PathBuf, Vec<tobj::Model>, Vec<tobj::Material>)> {
     if !(config.scale.is_finite() && config.scale > 0.0) {
         return Err(SimError::InvalidArgument {
             what: "scale",
@@ -141,12 +189,21 @@ pub fn import_scene(config: &ImportConfig) -> Result<ImportSummary> {
         }
     }
 
-    // Triangles in the world frame (Z up, metres), with texture coordinates where given.
+    Ok((scene_dir, models, materials))
+}
+
+/// The models' triangles in the world frame (Z up, metres), degenerate ones dropped, with
+/// the bounds and the count of every triangle read; a scene of no or absurd size refused.
+#[allow(clippy::type_complexity)]
+fn world_triangles(
+    config: &ImportConfig,
+    models: &[tobj::Model],
+) -> Result<(Vec<Piece>, [f64; 3], [f64; 3], usize)> {
     let mut pieces: Vec<Piece> = Vec::new();
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
     let mut triangles = 0usize;
-    for model in &models {
+    for model in models {
         let mesh = &model.mesh;
         let point = |i: u32| {
             let i = i as usize;
@@ -200,24 +257,12 @@ pub fn import_scene(config: &ImportConfig) -> Result<ImportSummary> {
     if extent < 1.0 {
         return Err(bad_scene(&config.scene, format!("the scene is {extent:.2} m across at --scale {}: too small for the robot; if its units are not metres, give --scale (for example 10 or 100)", config.scale)));
     }
-    let floor = match config.floor {
-        Some(z) if z.is_finite() => z,
-        Some(z) => return Err(SimError::InvalidArgument { what: "floor", detail: format!("{z}; give the floor's height in metres") }),
-        None => find_floor(&pieces, lo[2], hi[2]).ok_or_else(|| bad_scene(&config.scene, format!(
-        "no floor: no horizontal surface of {MIN_FLOOR_AREA} m2 or more in the lowest third of the scene; check --up ({} now) or give its height with --floor", match config.up { Up::Y => "y", Up::Z => "z" }
-    )))?,
-    };
-    for piece in &mut pieces {
-        for t in &mut piece.triangles {
-            for p in t.iter_mut() {
-                p[2] -= floor;
-            }
-        }
-    }
-    lo[2] -= floor;
-    hi[2] -= floor;
+    Ok((pieces, lo, hi, triangles))
+}
 
-    // Colliders: the scene voxelised in the band the robot moves through.
+/// Colliders: the scene voxelised in the band the robot moves through, enclosed space
+/// filled, merged into boxes.
+fn voxelise(pieces: &[Piece], lo: [f64; 3], hi: [f64; 3]) -> (Voxels, Vec<Cuboid>) {
     let top = COLLIDER_TOP.min(hi[2]);
     let origin = [lo[0] - VOXEL, lo[1] - VOXEL, COLLIDER_BOTTOM];
     let dims = [
@@ -226,7 +271,7 @@ pub fn import_scene(config: &ImportConfig) -> Result<ImportSummary> {
         (((top - COLLIDER_BOTTOM) / VOXEL).ceil() as usize).max(1),
     ];
     let mut voxels = Voxels::new(origin, VOXEL, dims);
-    for piece in &pieces {
+    for piece in pieces {
         for t in &piece.triangles {
             voxels.add_triangle(*t);
         }
@@ -234,7 +279,19 @@ pub fn import_scene(config: &ImportConfig) -> Result<ImportSummary> {
     voxels.fill_enclosed(MAX_HOLLOW_AREA);
     let colliders = voxels.merge();
 
-    // Writing: assets into a temporary folder, the world under a temporary name.
+    (voxels, colliders)
+}
+
+/// Writes the assets into a staging folder and the world under a temporary name, finds and
+/// checks the spawn, then moves both into place; nothing is left behind on failure.
+fn write_world(
+    config: &ImportConfig,
+    pieces: &[Piece],
+    materials: &[tobj::Material],
+    scene_dir: &Path,
+    colliders: &[Cuboid],
+    (lo, hi): ([f64; 3], [f64; 3]),
+) -> Result<Pose2> {
     let stem = config
         .out
         .file_stem()
@@ -260,14 +317,14 @@ pub fn import_scene(config: &ImportConfig) -> Result<ImportSummary> {
     let result = (|| {
         std::fs::create_dir_all(&staging)
             .map_err(|e| SimError::io("cannot create", &staging, e))?;
-        let assets_xml = write_assets(&pieces, &materials, &scene_dir, &staging)?;
+        let assets_xml = write_assets(pieces, materials, scene_dir, &staging)?;
         let robot = crate::worldgen::asset_paths(&folder)?.robot;
         let world_text = |meshdir: &str, spawn: Option<Pose2>| {
             mjcf(
                 meshdir,
                 &robot,
                 &assets_xml,
-                &colliders,
+                colliders,
                 spawn,
                 &config.scene,
             )
@@ -291,28 +348,10 @@ pub fn import_scene(config: &ImportConfig) -> Result<ImportSummary> {
             .map_err(|e| SimError::io("cannot write", &config.out, e))?;
         Ok(spawn)
     })();
-    let spawn = match result {
-        Ok(s) => s,
-        Err(e) => {
-            clean();
-            return Err(e);
-        }
-    };
-    Ok(ImportSummary {
-        out: config.out.clone(),
-        bounds: (lo, hi),
-        triangles,
-        meshes: pieces.len(),
-        materials: materials.len(),
-        textures: materials
-            .iter()
-            .filter(|m| m.diffuse_texture.is_some())
-            .count(),
-        colliders: colliders.len(),
-        voxels: voxels.count(),
-        floor_height: floor,
-        spawn,
-    })
+    if result.is_err() {
+        clean();
+    }
+    result
 }
 
 /// The triangles of one object in one material.
