@@ -6,7 +6,7 @@
 use super::Up;
 use crate::error::{Result, SimError};
 use crate::evaluate::WORLD_GROUPS;
-use crate::mujoco::{ObjKind, Shape};
+use crate::mujoco::{Model, ObjKind, Shape};
 use crate::world::World;
 use nalgebra::{Matrix3, Point3, Vector3};
 use std::collections::BTreeMap;
@@ -75,8 +75,12 @@ pub fn export_world(world: &World, obj: &Path, overwrite: bool) -> Result<Export
         "# Exported by splatloop from {}: Y up, metres.\nmtllib {stem}.mtl\n",
         model.path().display()
     );
-    let mut materials: BTreeMap<String, String> = BTreeMap::new();
-    let mut texture_files: Vec<(PathBuf, usize)> = Vec::new();
+    let mut library = MaterialLibrary {
+        stem: stem.clone(),
+        textures_dir: textures_dir.clone(),
+        materials: BTreeMap::new(),
+        texture_files: Vec::new(),
+    };
     let (mut base, mut objects, mut triangles) = (1usize, 0usize, 0usize);
     for geom in 0..model.geom_count() {
         let group = model.geom_group(geom);
@@ -92,28 +96,92 @@ pub fn export_world(world: &World, obj: &Path, overwrite: bool) -> Result<Export
         if alpha <= 0.0 {
             continue;
         }
-        let size = model.geom_size(geom);
-        let surface = match model.geom_shape(geom) {
-            Shape::Box => cuboid(size),
-            Shape::Plane => {
-                if size[0] <= 0.0 || size[1] <= 0.0 {
-                    continue;
-                }
-                plane(size, info)
-            }
-            Shape::Sphere => ellipsoid([size[0]; 3]),
-            Shape::Ellipsoid => ellipsoid(size),
-            Shape::Cylinder => cylinder(size[0], size[1], false),
-            Shape::Capsule => cylinder(size[0], size[1], true),
-            Shape::Mesh(mesh) => mesh_surface(
-                model.mesh_vertices(mesh),
-                model.mesh_normals(mesh),
-                model.mesh_faces(mesh),
-            ),
-            Shape::HeightField | Shape::Other => continue,
+        let Some(surface) = geom_surface(model, geom, info) else {
+            continue;
         };
         // The material: MuJoCo's own, or one per plain colour.
-        let material_name = match (material, info) {
+        let material_name = library.name_for(model, rgba, material, info);
+        let position = data.geom_position(geom);
+        let rotation: Matrix3<f64> = data.geom_rotation(geom);
+        let name = model
+            .name(ObjKind::Geom, geom)
+            .unwrap_or_else(|| format!("geom_{geom}"));
+        write_object(
+            &mut text,
+            &name,
+            &material_name,
+            &surface,
+            position,
+            rotation,
+            base,
+        );
+        base += surface.positions.len();
+        objects += 1;
+        triangles += surface.triangles.len();
+    }
+    write_scene_files(model, &library, &mtl, obj, &text)?;
+    Ok(ExportSummary {
+        obj: obj.to_path_buf(),
+        objects,
+        triangles,
+        materials: library.materials.len(),
+        textures: library.texture_files.len(),
+    })
+}
+
+/// A geom's surface in its own frame, `None` for what has none to export (an infinite plane,
+/// a height field).
+fn geom_surface(
+    model: &Model,
+    geom: usize,
+    info: Option<crate::mujoco::MaterialInfo>,
+) -> Option<Surface> {
+    let size = model.geom_size(geom);
+    Some(match model.geom_shape(geom) {
+        Shape::Box => cuboid(size),
+        Shape::Plane => {
+            if size[0] <= 0.0 || size[1] <= 0.0 {
+                return None;
+            }
+            plane(size, info)
+        }
+        Shape::Sphere => ellipsoid([size[0]; 3]),
+        Shape::Ellipsoid => ellipsoid(size),
+        Shape::Cylinder => cylinder(size[0], size[1], false),
+        Shape::Capsule => cylinder(size[0], size[1], true),
+        Shape::Mesh(mesh) => mesh_surface(
+            model.mesh_vertices(mesh),
+            model.mesh_normals(mesh),
+            model.mesh_faces(mesh),
+        ),
+        Shape::HeightField | Shape::Other => return None,
+    })
+}
+
+/// The materials the exported geoms use, and the textures they name.
+struct MaterialLibrary {
+    /// The OBJ's stem (textures go to `<stem>_textures/`).
+    stem: String,
+    textures_dir: PathBuf,
+    /// MTL entries by name.
+    materials: BTreeMap<String, String>,
+    /// Texture files to write and the MuJoCo texture each holds.
+    texture_files: Vec<(PathBuf, usize)>,
+}
+
+impl MaterialLibrary {
+    /// The material of a geom of colour `rgba`: MuJoCo's own, or one per plain colour; added
+    /// to the library on first use.
+    fn name_for(
+        &mut self,
+        model: &Model,
+        rgba: [f32; 4],
+        material: Option<usize>,
+        info: Option<crate::mujoco::MaterialInfo>,
+    ) -> String {
+        let (stem, textures_dir) = (&self.stem, &self.textures_dir);
+        let (materials, texture_files) = (&mut self.materials, &mut self.texture_files);
+        match (material, info) {
             (Some(m), Some(i)) => {
                 let name = model
                     .name(ObjKind::Material, m)
@@ -154,35 +222,55 @@ pub fn export_world(world: &World, obj: &Path, overwrite: bool) -> Result<Export
                 });
                 name
             }
-        };
-        let position = data.geom_position(geom);
-        let rotation: Matrix3<f64> = data.geom_rotation(geom);
-        let name = model
-            .name(ObjKind::Geom, geom)
-            .unwrap_or_else(|| format!("geom_{geom}"));
-        let _ = writeln!(text, "o {name}\nusemtl {material_name}");
-        for p in &surface.positions {
-            let w = Point3::from(position.coords + rotation * p);
-            let f = Up::Y.from_world([w.x, w.y, w.z]);
-            let _ = writeln!(text, "v {:.6} {:.6} {:.6}", f[0], f[1], f[2]);
         }
-        for uv in &surface.uvs {
-            let _ = writeln!(text, "vt {:.6} {:.6}", uv[0], uv[1]);
-        }
-        for n in &surface.normals {
-            let w = rotation * n;
-            let f = Up::Y.from_world([w.x, w.y, w.z]);
-            let _ = writeln!(text, "vn {:.6} {:.6} {:.6}", f[0], f[1], f[2]);
-        }
-        for t in &surface.triangles {
-            let [a, b, c] = t.map(|i| i + base);
-            let _ = writeln!(text, "f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}");
-        }
-        base += surface.positions.len();
-        objects += 1;
-        triangles += surface.triangles.len();
     }
-    // Everything goes to temporary names first, so a failure leaves no partial scene.
+}
+
+/// Appends one geom as an OBJ object: its vertices placed in the world and turned Y up,
+/// its faces numbered from `base`.
+fn write_object(
+    text: &mut String,
+    name: &str,
+    material_name: &str,
+    surface: &Surface,
+    position: Point3<f64>,
+    rotation: Matrix3<f64>,
+    base: usize,
+) {
+    let _ = writeln!(text, "o {name}\nusemtl {material_name}");
+    for p in &surface.positions {
+        let w = Point3::from(position.coords + rotation * p);
+        let f = Up::Y.from_world([w.x, w.y, w.z]);
+        let _ = writeln!(text, "v {:.6} {:.6} {:.6}", f[0], f[1], f[2]);
+    }
+    for uv in &surface.uvs {
+        let _ = writeln!(text, "vt {:.6} {:.6}", uv[0], uv[1]);
+    }
+    for n in &surface.normals {
+        let w = rotation * n;
+        let f = Up::Y.from_world([w.x, w.y, w.z]);
+        let _ = writeln!(text, "vn {:.6} {:.6} {:.6}", f[0], f[1], f[2]);
+    }
+    for t in &surface.triangles {
+        let [a, b, c] = t.map(|i| i + base);
+        let _ = writeln!(text, "f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}");
+    }
+}
+
+/// Writes the textures, the MTL and the OBJ under temporary names, then gives each its name,
+/// so a failure leaves no partial scene.
+fn write_scene_files(
+    model: &Model,
+    library: &MaterialLibrary,
+    mtl: &Path,
+    obj: &Path,
+    text: &str,
+) -> Result<()> {
+    let (textures_dir, texture_files, materials) = (
+        &library.textures_dir,
+        &library.texture_files,
+        &library.materials,
+    );
     let write = |path: &Path, bytes: &[u8]| -> Result<PathBuf> {
         let temporary = partial(path);
         std::fs::write(&temporary, bytes).map_err(|e| SimError::io("cannot write", path, e))?;
@@ -190,9 +278,9 @@ pub fn export_world(world: &World, obj: &Path, overwrite: bool) -> Result<Export
     };
     let mut pending = Vec::new();
     if !texture_files.is_empty() {
-        std::fs::create_dir_all(&textures_dir)
-            .map_err(|e| SimError::io("cannot create", &textures_dir, e))?;
-        for (path, t) in &texture_files {
+        std::fs::create_dir_all(textures_dir)
+            .map_err(|e| SimError::io("cannot create", textures_dir, e))?;
+        for (path, t) in texture_files {
             let info = model.texture(*t);
             // A cube texture's first face (MuJoCo repeats one image on all six).
             let rows = if info.flat { info.height } else { info.width };
@@ -203,18 +291,12 @@ pub fn export_world(world: &World, obj: &Path, overwrite: bool) -> Result<Export
         }
     }
     let mtl_text: String = materials.values().map(|m| format!("{m}\n")).collect();
-    pending.push((write(&mtl, mtl_text.as_bytes())?, mtl.clone()));
+    pending.push((write(mtl, mtl_text.as_bytes())?, mtl.to_path_buf()));
     pending.push((write(obj, text.as_bytes())?, obj.to_path_buf()));
     for (from, to) in pending {
         std::fs::rename(&from, &to).map_err(|e| SimError::io("cannot write", &to, e))?;
     }
-    Ok(ExportSummary {
-        obj: obj.to_path_buf(),
-        objects,
-        triangles,
-        materials: materials.len(),
-        textures: texture_files.len(),
-    })
+    Ok(())
 }
 
 /// Where `path` is written before it takes its name.
