@@ -289,36 +289,10 @@ impl Mapper {
         let max_depth = frame.depth.iter().fold(0.0f32, |m, d| m.max(*d));
         self.scene_radius = self.scene_radius.max(max_depth / 3.0);
 
-        // Grow.
         let t0 = Instant::now();
-        let rendered = if self.map.is_empty() {
-            None
-        } else {
-            Some(self.engine.render(&self.map.gaussians, &camera)?)
-        };
-        report.added = densify::densify(
-            &mut self.map.gaussians,
-            frame,
-            &camera,
-            rendered.as_ref().map(|r| r.images()),
-            &self.config.densify,
-        );
-        drop(rendered);
-        self.map.adopt_new_gaussians();
-
-        // Choose the views: the frame, then the keyframes that see most of it.
-        let points = keyframes::sample_points(frame, &camera);
-        let mut ranked: Vec<(f64, usize)> = self
-            .keyframes
-            .iter()
-            .enumerate()
-            .map(|(i, kf)| (keyframes::overlap(&points, kf), i))
-            .filter(|(o, _)| *o > 0.0)
-            .collect();
-        ranked.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-        let best_overlap = ranked.first().map_or(0.0, |r| r.0);
-        ranked.truncate(self.config.window);
-        report.window = ranked.len();
+        report.added = self.grow(frame, &camera)?;
+        let (window, best_overlap) = self.choose_keyframes(frame, &camera);
+        report.window = window.len();
 
         // Optimise: the current frame on two iterations of every three, the window's keyframes
         // in turn on the third. The newest frame carries the new information; the keyframes
@@ -329,77 +303,158 @@ impl Mapper {
         self.adam.resize(self.map.len());
         let views: Vec<Option<usize>> = (0..self.config.iterations)
             .map(|iteration| {
-                (iteration % 3 == 2 && !ranked.is_empty())
-                    .then(|| ranked[(iteration / 3) % ranked.len()].1)
+                (iteration % 3 == 2 && !window.is_empty())
+                    .then(|| window[(iteration / 3) % window.len()])
             })
             .collect();
-        if let Some(gpu) = self.engine.gpu() {
-            // The whole iteration on the GPU: the map loaded once, stored back once.
-            let state = self.resident.get_or_insert_with(|| ResidentViews {
-                map: ResidentMap::new(gpu, self.config.rates),
-                current: None,
-                keyframes: Vec::new(),
-            });
-            let current = match state.current {
-                Some(slot) => {
-                    state
-                        .map
-                        .replace_view(gpu, slot, &camera, &frame.colour, &frame.depth)?;
-                    slot
-                }
-                None => {
-                    let slot = state
-                        .map
-                        .add_view(gpu, &camera, &frame.colour, &frame.depth)?;
-                    state.current = Some(slot);
-                    slot
-                }
-            };
-            state
-                .map
-                .load(gpu, &self.map.gaussians, self.adam.state())?;
-            for (iteration, keyframe) in views.iter().enumerate() {
-                let view = keyframe.map_or(current, |k| state.keyframes[k]);
-                let terms = state.map.iterate(gpu, view)?;
-                if iteration == 0 {
-                    report.loss.0 = terms.total();
-                }
-                report.loss.1 = terms.total();
-            }
-            state.map.store(
-                gpu,
-                &mut self.map.gaussians,
-                self.adam.state_mut(),
-                &mut touched,
-            )?;
+        report.loss = if self.engine.gpu().is_some() {
+            self.optimise_resident(frame, &camera, &views, &mut touched)?
         } else {
-            for (iteration, keyframe) in views.iter().enumerate() {
-                let (view_frame, view_camera) = match keyframe {
-                    Some(k) => (&self.keyframes[*k].frame, &self.keyframes[*k].camera),
-                    None => (frame, &camera),
-                };
-                let render = self.engine.render(&self.map.gaussians, view_camera)?;
-                let (terms, image_grads) = mapping_loss(
-                    render.images(),
-                    Target {
-                        colour: &view_frame.colour,
-                        depth: &view_frame.depth,
-                    },
-                );
-                if iteration == 0 {
-                    report.loss.0 = terms.total();
-                }
-                report.loss.1 = terms.total();
-                let grads = self.engine.backward(&render, &image_grads)?;
-                for &i in &grads.touched {
-                    touched[i as usize] = true;
-                }
-                self.adam.step(&mut self.map.gaussians, &grads);
-            }
-        }
+            self.optimise(frame, &camera, &views, &mut touched)?
+        };
 
-        // Uncertainty: how far this step moved each Gaussian it touched.
         let t2 = Instant::now();
+        self.update_uncertainty(&before, &touched);
+        report.pruned = self.prune();
+        report.keyframe = self.keep_keyframe(frame, camera, best_overlap);
+        self.steps += 1;
+        report.gaussians = self.map.len();
+        report.seconds = [
+            (t1 - t0).as_secs_f64(),
+            (t2 - t1).as_secs_f64(),
+            t2.elapsed().as_secs_f64(),
+        ];
+        tracing::debug!(?report, "mapping step");
+        Ok(report)
+    }
+
+    /// Grows the map where the frame shows what it is missing; the count added.
+    fn grow(&mut self, frame: &Frame, camera: &PinholeCamera) -> Result<usize, MapError> {
+        let rendered = if self.map.is_empty() {
+            None
+        } else {
+            Some(self.engine.render(&self.map.gaussians, camera)?)
+        };
+        let added = densify::densify(
+            &mut self.map.gaussians,
+            frame,
+            camera,
+            rendered.as_ref().map(|r| r.images()),
+            &self.config.densify,
+        );
+        drop(rendered);
+        self.map.adopt_new_gaussians();
+
+        Ok(added)
+    }
+
+    /// The keyframes of the window (those that see most of the frame, at most `window`),
+    /// and the best overlap of any keyframe with the frame.
+    fn choose_keyframes(&self, frame: &Frame, camera: &PinholeCamera) -> (Vec<usize>, f64) {
+        let points = keyframes::sample_points(frame, camera);
+        let mut ranked: Vec<(f64, usize)> = self
+            .keyframes
+            .iter()
+            .enumerate()
+            .map(|(i, kf)| (keyframes::overlap(&points, kf), i))
+            .filter(|(o, _)| *o > 0.0)
+            .collect();
+        ranked.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let best_overlap = ranked.first().map_or(0.0, |r| r.0);
+        ranked.truncate(self.config.window);
+
+        (ranked.into_iter().map(|(_, i)| i).collect(), best_overlap)
+    }
+
+    /// The step's iterations on the GPU, resident: the map loaded once, stored back once; the
+    /// first and last iterations' losses.
+    fn optimise_resident(
+        &mut self,
+        frame: &Frame,
+        camera: &PinholeCamera,
+        views: &[Option<usize>],
+        touched: &mut [bool],
+    ) -> Result<(f32, f32), MapError> {
+        let Some(gpu) = self.engine.gpu() else {
+            return Ok((0.0, 0.0));
+        };
+        let mut loss = (0.0, 0.0);
+        // The whole iteration on the GPU: the map loaded once, stored back once.
+        let state = self.resident.get_or_insert_with(|| ResidentViews {
+            map: ResidentMap::new(gpu, self.config.rates),
+            current: None,
+            keyframes: Vec::new(),
+        });
+        let current = match state.current {
+            Some(slot) => {
+                state
+                    .map
+                    .replace_view(gpu, slot, camera, &frame.colour, &frame.depth)?;
+                slot
+            }
+            None => {
+                let slot = state
+                    .map
+                    .add_view(gpu, camera, &frame.colour, &frame.depth)?;
+                state.current = Some(slot);
+                slot
+            }
+        };
+        state
+            .map
+            .load(gpu, &self.map.gaussians, self.adam.state())?;
+        for (iteration, keyframe) in views.iter().enumerate() {
+            let view = keyframe.map_or(current, |k| state.keyframes[k]);
+            let terms = state.map.iterate(gpu, view)?;
+            if iteration == 0 {
+                loss.0 = terms.total();
+            }
+            loss.1 = terms.total();
+        }
+        state
+            .map
+            .store(gpu, &mut self.map.gaussians, self.adam.state_mut(), touched)?;
+        Ok(loss)
+    }
+
+    /// The step's iterations on the CPU engine: render, loss, backward, Adam; the first and
+    /// last iterations' losses.
+    fn optimise(
+        &mut self,
+        frame: &Frame,
+        camera: &PinholeCamera,
+        views: &[Option<usize>],
+        touched: &mut [bool],
+    ) -> Result<(f32, f32), MapError> {
+        let mut loss = (0.0, 0.0);
+        for (iteration, keyframe) in views.iter().enumerate() {
+            let (view_frame, view_camera) = match keyframe {
+                Some(k) => (&self.keyframes[*k].frame, &self.keyframes[*k].camera),
+                None => (frame, camera),
+            };
+            let render = self.engine.render(&self.map.gaussians, view_camera)?;
+            let (terms, image_grads) = mapping_loss(
+                render.images(),
+                Target {
+                    colour: &view_frame.colour,
+                    depth: &view_frame.depth,
+                },
+            );
+            if iteration == 0 {
+                loss.0 = terms.total();
+            }
+            loss.1 = terms.total();
+            let grads = self.engine.backward(&render, &image_grads)?;
+            for &i in &grads.touched {
+                touched[i as usize] = true;
+            }
+            self.adam.step(&mut self.map.gaussians, &grads);
+        }
+        Ok(loss)
+    }
+
+    /// Uncertainty: how far this step moved each Gaussian it touched.
+    fn update_uncertainty(&mut self, before: &[[f32; 3]], touched: &[bool]) {
         for (i, moved) in touched.iter().enumerate() {
             if *moved {
                 let (a, b) = (before[i], self.map.gaussians.means[i]);
@@ -410,8 +465,10 @@ impl Mapper {
                     .of_squared(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
             }
         }
+    }
 
-        // Prune.
+    /// Drops Gaussians too transparent or too wide; the count pruned.
+    fn prune(&mut self) -> usize {
         let max_radius = self.config.prune_radius_fraction * self.scene_radius;
         let g = &self.map.gaussians;
         let keep: Vec<bool> = (0..g.len())
@@ -420,37 +477,32 @@ impl Mapper {
                     && g.log_radii[i].exp() <= max_radius
             })
             .collect();
-        report.pruned = keep.iter().filter(|k| !**k).count();
-        if report.pruned > 0 {
+        let pruned = keep.iter().filter(|k| !**k).count();
+        if pruned > 0 {
             self.map.retain(&keep);
             self.adam.retain(&keep);
         }
 
-        // Keep the frame if no keyframe already covers it.
-        if best_overlap < self.config.keyframe_overlap
-            && self.keyframes.len() < self.config.max_keyframes
-        {
-            self.keyframes.push(Keyframe {
-                frame: frame.clone(),
-                camera,
-            });
-            report.keyframe = true;
-            // The current frame's view becomes the keyframe's; the next frame takes a new one.
-            if let Some(state) = &mut self.resident {
-                if let Some(slot) = state.current.take() {
-                    state.keyframes.push(slot);
-                }
+        pruned
+    }
+
+    /// Keeps the frame if no keyframe already covers it (and there is room); whether it did.
+    fn keep_keyframe(&mut self, frame: &Frame, camera: PinholeCamera, best_overlap: f64) -> bool {
+        let room = self.keyframes.len() < self.config.max_keyframes;
+        if !(best_overlap < self.config.keyframe_overlap && room) {
+            return false;
+        }
+        self.keyframes.push(Keyframe {
+            frame: frame.clone(),
+            camera,
+        });
+        // The current frame's view becomes the keyframe's; the next frame takes a new one.
+        if let Some(state) = &mut self.resident {
+            if let Some(slot) = state.current.take() {
+                state.keyframes.push(slot);
             }
         }
-        self.steps += 1;
-        report.gaussians = self.map.len();
-        report.seconds = [
-            (t1 - t0).as_secs_f64(),
-            (t2 - t1).as_secs_f64(),
-            t2.elapsed().as_secs_f64(),
-        ];
-        tracing::debug!(?report, "mapping step");
-        Ok(report)
+        true
     }
 
     /// Replaces the map (e.g. one read from a PLY); keyframes are dropped.
