@@ -586,82 +586,12 @@ impl AgslamPlanner {
             fc.footprint_radius,
         );
         let train = self.train_for(map);
-
-        // Candidates: around the best-ranked cluster (FBE's rule) that has goal poses, or
-        // refinement goals when no frontier is left.
-        let ranked = frontier::ranked(&view.grid, &view.clusters, [start.x, start.y]);
-        let mut goals = Vec::new();
-        let mut centre = [start.x, start.y];
-        for (i, _) in &ranked {
-            let c = view.clusters[*i].centroid;
-            goals = view.sample_goals(
-                c,
-                self.config.candidates,
-                fc.goal_radius,
-                fc.goal_clearance,
-                &mut self.rng,
-            );
-            goals.retain(|g| self.executor.is_free(g));
-            if !goals.is_empty() {
-                centre = c;
-                break;
-            }
-        }
-        if ranked.is_empty() {
-            goals = self.refinement_goals(map, &train, &view);
-        }
-        goals.extend(self.goal.iter().copied());
-        goals.extend(self.previous.iter().copied());
-        // A goal the robot already stands at, facing its way, is the view it has: choosing it
-        // again would only stand still (and the progress watch would back the robot off).
-        let tolerance = self.executor.config().search.goal_tolerance;
-        let reached = |g: &Pose2| {
-            start.distance([g.x, g.y]) <= tolerance
-                && crate::drive::wrap_angle(g.theta - start.theta).abs() < REACHED_HEADING
-        };
-        goals.retain(|g| {
-            !reached(g) && view.admits([g.x, g.y], fc.goal_clearance) && self.executor.is_free(g)
-        });
+        let (goals, centre) = self.candidate_goals(map, start, &view, &train);
         if goals.is_empty() {
             return Decision::Fail(super::PlanFailure::GoalUnreachable);
         }
-        // Temporary Gaussians only where a candidate or path view can see them: within the
-        // sensor's range (plus the goals' spread) of the robot or the chosen cluster.
-        let reach = self.mount.range + 2.0 * fc.goal_radius[1];
-        let frontier_cells: Vec<usize> = view
-            .clusters
-            .iter()
-            .flat_map(|c| c.cells.iter().copied())
-            .filter(|c| {
-                let p = view.grid.centre(*c);
-                (p[0] - start.x).hypot(p[1] - start.y) <= reach
-                    || (p[0] - centre[0]).hypot(p[1] - centre[1]) <= reach
-            })
-            .collect();
         let t_setup = Instant::now();
-        // Every view of this plan lies within `reach` of the robot or the cluster: the map's
-        // Gaussians beyond sensor range of both are culled once here, not in every view.
-        let margin = self.mount.range + 0.5;
-        let path_reach = self.config.action_length * self.config.path_actions as f64;
-        let (lo, hi) = goals.iter().fold(
-            ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
-            |(lo, hi), g| {
-                (
-                    [lo[0].min(g.x - margin), lo[1].min(g.y - margin)],
-                    [hi[0].max(g.x + margin), hi[1].max(g.y + margin)],
-                )
-            },
-        );
-        let near = |m: &[f32; 3]| {
-            let (x, y) = (f64::from(m[0]), f64::from(m[1]));
-            (x - start.x).hypot(y - start.y) <= path_reach + margin
-                || (x >= lo[0] && x <= hi[0] && y >= lo[1] && y <= hi[1])
-        };
-        let local: Vec<u32> = (0..map.len() as u32)
-            .filter(|i| near(&map.gaussians.means[*i as usize]))
-            .collect();
-        let gaussians =
-            self.with_temporary(subset(&map.gaussians, &local), &view.grid, &frontier_cells);
+        let (gaussians, local) = self.local_gaussians(map, start, &goals, centre, &view);
         let mut train_all: Vec<[f32; FISHER_PARAMETERS]> =
             local.iter().map(|i| train[*i as usize]).collect();
         train_all.resize(gaussians.len(), [0.0; FISHER_PARAMETERS]);
@@ -683,31 +613,7 @@ impl AgslamPlanner {
             .take(self.config.keep_top)
             .map(|s| s.pose)
             .collect();
-
-        // Paths for the best goals, scored by eq 13.
-        let mut best: Option<(f64, Pose2, Vec<[f64; 2]>)> = None;
-        for s in scored.iter().take(self.config.paths) {
-            let guidance = view.guidance(start, [s.pose.x, s.pose.y]);
-            let (poses, actions) = self.path_views(&guidance, s.pose);
-            let views: Vec<(SparseFisher, f64)> = poses
-                .iter()
-                .map(|p| {
-                    let info = self.view(&gaussians, &self.mount.camera_at(p), with_pose);
-                    (info.fisher, info.log_det)
-                })
-                .collect();
-            let score = path_score(
-                &views,
-                actions,
-                self.config.information_every,
-                &train_all,
-                &self.config,
-                s.score,
-            );
-            if best.as_ref().is_none_or(|b| score > b.0) {
-                best = Some((score, s.pose, guidance));
-            }
-        }
+        let best = self.best_path(start, &view, &scored, &gaussians, &train_all);
         tracing::debug!(
             "agslam: {} Gaussians ({} temporary), {} goals in {:.3} s, {} paths in {:.3} s",
             gaussians.len(),
@@ -733,5 +639,140 @@ impl AgslamPlanner {
                 Decision::Fail(f)
             }
         }
+    }
+
+    /// Candidate goals around the best-ranked cluster (FBE's rule) that has goal poses, or
+    /// refinement goals when no frontier is left, with the kept goal and the previous best;
+    /// those reached or not admitted dropped. Also the cluster's centroid (the robot's
+    /// position without one).
+    fn candidate_goals(
+        &mut self,
+        map: &GaussianMap,
+        start: Pose2,
+        view: &FrontierView,
+        train: &[[f32; FISHER_PARAMETERS]],
+    ) -> (Vec<Pose2>, [f64; 2]) {
+        let fc = self.config.frontier.clone();
+        let ranked = frontier::ranked(&view.grid, &view.clusters, [start.x, start.y]);
+        let mut goals = Vec::new();
+        let mut centre = [start.x, start.y];
+        for (i, _) in &ranked {
+            let c = view.clusters[*i].centroid;
+            goals = view.sample_goals(
+                c,
+                self.config.candidates,
+                fc.goal_radius,
+                fc.goal_clearance,
+                &mut self.rng,
+            );
+            goals.retain(|g| self.executor.is_free(g));
+            if !goals.is_empty() {
+                centre = c;
+                break;
+            }
+        }
+        if ranked.is_empty() {
+            goals = self.refinement_goals(map, train, view);
+        }
+        goals.extend(self.goal.iter().copied());
+        goals.extend(self.previous.iter().copied());
+        // A goal the robot already stands at, facing its way, is the view it has: choosing it
+        // again would only stand still (and the progress watch would back the robot off).
+        let tolerance = self.executor.config().search.goal_tolerance;
+        let reached = |g: &Pose2| {
+            start.distance([g.x, g.y]) <= tolerance
+                && crate::drive::wrap_angle(g.theta - start.theta).abs() < REACHED_HEADING
+        };
+        goals.retain(|g| {
+            !reached(g) && view.admits([g.x, g.y], fc.goal_clearance) && self.executor.is_free(g)
+        });
+        (goals, centre)
+    }
+
+    /// The map's Gaussians a view of this plan can see (within sensor range of the goals'
+    /// box or of the path from the robot), with temporary Gaussians on the frontier cells
+    /// near the robot or the cluster; and the map's indices of the kept ones.
+    fn local_gaussians(
+        &mut self,
+        map: &GaussianMap,
+        start: Pose2,
+        goals: &[Pose2],
+        centre: [f64; 2],
+        view: &FrontierView,
+    ) -> (Gaussians, Vec<u32>) {
+        let fc = &self.config.frontier;
+        // Temporary Gaussians only where a candidate or path view can see them: within the
+        // sensor's range (plus the goals' spread) of the robot or the chosen cluster.
+        let reach = self.mount.range + 2.0 * fc.goal_radius[1];
+        let frontier_cells: Vec<usize> = view
+            .clusters
+            .iter()
+            .flat_map(|c| c.cells.iter().copied())
+            .filter(|c| {
+                let p = view.grid.centre(*c);
+                (p[0] - start.x).hypot(p[1] - start.y) <= reach
+                    || (p[0] - centre[0]).hypot(p[1] - centre[1]) <= reach
+            })
+            .collect();
+        // Every view of this plan lies within `reach` of the robot or the cluster: the map's
+        // Gaussians beyond sensor range of both are culled once here, not in every view.
+        let margin = self.mount.range + 0.5;
+        let path_reach = self.config.action_length * self.config.path_actions as f64;
+        let (lo, hi) = goals.iter().fold(
+            ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+            |(lo, hi), g| {
+                (
+                    [lo[0].min(g.x - margin), lo[1].min(g.y - margin)],
+                    [hi[0].max(g.x + margin), hi[1].max(g.y + margin)],
+                )
+            },
+        );
+        let near = |m: &[f32; 3]| {
+            let (x, y) = (f64::from(m[0]), f64::from(m[1]));
+            (x - start.x).hypot(y - start.y) <= path_reach + margin
+                || (x >= lo[0] && x <= hi[0] && y >= lo[1] && y <= hi[1])
+        };
+        let local: Vec<u32> = (0..map.len() as u32)
+            .filter(|i| near(&map.gaussians.means[*i as usize]))
+            .collect();
+        let gaussians =
+            self.with_temporary(subset(&map.gaussians, &local), &view.grid, &frontier_cells);
+        (gaussians, local)
+    }
+
+    /// Paths for the best goals, scored by eq 13: the best's score, goal and guidance path.
+    fn best_path(
+        &self,
+        start: Pose2,
+        view: &FrontierView,
+        scored: &[Scored],
+        gaussians: &Gaussians,
+        train_all: &[[f32; FISHER_PARAMETERS]],
+    ) -> Option<(f64, Pose2, Vec<[f64; 2]>)> {
+        let with_pose = self.config.pose_weight != 0.0;
+        let mut best: Option<(f64, Pose2, Vec<[f64; 2]>)> = None;
+        for s in scored.iter().take(self.config.paths) {
+            let guidance = view.guidance(start, [s.pose.x, s.pose.y]);
+            let (poses, actions) = self.path_views(&guidance, s.pose);
+            let views: Vec<(SparseFisher, f64)> = poses
+                .iter()
+                .map(|p| {
+                    let info = self.view(gaussians, &self.mount.camera_at(p), with_pose);
+                    (info.fisher, info.log_det)
+                })
+                .collect();
+            let score = path_score(
+                &views,
+                actions,
+                self.config.information_every,
+                train_all,
+                &self.config,
+                s.score,
+            );
+            if best.as_ref().is_none_or(|b| score > b.0) {
+                best = Some((score, s.pose, guidance));
+            }
+        }
+        best
     }
 }
