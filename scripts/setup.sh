@@ -48,19 +48,25 @@ fi
 #   plyfile  what the reference 3DGS loader reads PLYs with; a test reads map.ply with it
 #   rerun-sdk  the rerun viewer and CLI (`.venv/bin/rerun FILE.rrd`), the same version as the
 #            Rust SDK that writes our recordings; a test reads one back with `rerun rrd print`
+#   maturin, gymnasium, pytest  the Python package `splatloop` (python/): its build backend,
+#            the API its environment implements, and its tests
 RAY_VERSION=2.40.0
 MUJOCO_VERSION=4.0.0
 PLYFILE_VERSION=1.1
 RERUN_VERSION=0.36.3
+MATURIN_VERSION=1.8.3
+GYMNASIUM_VERSION=1.0.0
+PYTEST_VERSION=8.3.4
 if ! .venv/bin/python -c "
 import sys, importlib.metadata as m
-sys.exit(m.version('ray') != '$RAY_VERSION' or m.version('mujoco') != '$MUJOCO_VERSION' or m.version('plyfile') != '$PLYFILE_VERSION' or m.version('rerun-sdk') != '$RERUN_VERSION')" 2>/dev/null; then
-  say "installing Ray $RAY_VERSION, MuJoCo $MUJOCO_VERSION, plyfile $PLYFILE_VERSION and rerun-sdk $RERUN_VERSION into .venv"
+sys.exit(m.version('ray') != '$RAY_VERSION' or m.version('mujoco') != '$MUJOCO_VERSION' or m.version('plyfile') != '$PLYFILE_VERSION' or m.version('rerun-sdk') != '$RERUN_VERSION' or m.version('maturin') != '$MATURIN_VERSION' or m.version('gymnasium') != '$GYMNASIUM_VERSION' or m.version('pytest') != '$PYTEST_VERSION')" 2>/dev/null; then
+  say "installing Ray $RAY_VERSION, MuJoCo $MUJOCO_VERSION, plyfile $PLYFILE_VERSION, rerun-sdk $RERUN_VERSION, maturin, gymnasium and pytest into .venv"
   python3 -m venv .venv
   .venv/bin/pip install --quiet --disable-pip-version-check \
-    "ray==$RAY_VERSION" "mujoco==$MUJOCO_VERSION" "plyfile==$PLYFILE_VERSION" "rerun-sdk==$RERUN_VERSION"
+    "ray==$RAY_VERSION" "mujoco==$MUJOCO_VERSION" "plyfile==$PLYFILE_VERSION" "rerun-sdk==$RERUN_VERSION" \
+    "maturin==$MATURIN_VERSION" "gymnasium==$GYMNASIUM_VERSION" "pytest==$PYTEST_VERSION"
 else
-  say "Ray, MuJoCo, plyfile and rerun-sdk already in .venv"
+  say "Ray, MuJoCo, plyfile, rerun-sdk, maturin, gymnasium and pytest already in .venv"
 fi
 
 say "fetching Rust dependencies"
@@ -69,7 +75,7 @@ cargo fetch --locked 2>/dev/null || cargo fetch
 # CI sets SPLATLOOP_SKIP_RELEASE_BUILD=1: its tests build the dev profile, and the release
 # build alone is a third of a 2-core machine's CI time.
 if [ "${SPLATLOOP_SKIP_RELEASE_BUILD:-0}" = 1 ]; then
-  say "done (release build skipped: SPLATLOOP_SKIP_RELEASE_BUILD=1)"
+  say "done (release build skipped: SPLATLOOP_SKIP_RELEASE_BUILD=1; scripts/test.sh installs the Python package from its test build)"
   exit 0
 fi
 
@@ -77,4 +83,8 @@ fi
 say "building splatloop (release, with rerun recordings)"
 cargo build --release --features rerun --locked 2>/dev/null || cargo build --release --features rerun
 
-say "done: target/release/splatloop is ready"
+# The Python package (`import splatloop`) into .venv, from the same release build's artefacts.
+say "installing the Python package splatloop into .venv"
+PATH="$PWD/.venv/bin:$PATH" .venv/bin/pip install --quiet --disable-pip-version-check --no-build-isolation ./python
+
+say "done: target/release/splatloop is ready; .venv/bin/python -c 'import splatloop' works"

@@ -22,6 +22,12 @@ export CLIPPY_ARGS="-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__"
 
 cargo test --workspace
 
+# The Python package from the test build's artefacts (the dev profile is optimised), into
+# .venv, then its tests; the dataset test calls the binary cargo test just built.
+echo "==> the Python package (pytest)"
+VIRTUAL_ENV="$PWD/.venv" PATH="$PWD/.venv/bin:$PATH" .venv/bin/maturin develop --quiet -m python/Cargo.toml
+.venv/bin/python -m pytest -q python/tests
+
 # Its own profile (Cargo.toml's recording-test): rerun's SDK unoptimised, which keeps this
 # build to minutes on 2 cores; the recording is read back by .venv's rerun CLI.
 echo "==> the rerun recording test"

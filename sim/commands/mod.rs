@@ -18,7 +18,7 @@ pub use bench::cli::{BenchArgs, BenchTarget};
 pub use eval::EvalArgs;
 pub use record::RecordArgs;
 pub use render::RenderArgs;
-pub use run::{RunArgs, RunOptions, ViewArgs};
+pub use run::{run_config_from_words, RunArgs, RunOptions, ViewArgs};
 pub use sweep::cli::{SweepArgs, SweepBackend};
 pub use world::WorldCommand;
 

@@ -108,32 +108,56 @@ fn parse_sh_degree(text: &str) -> Result<u8, String> {
     }
 }
 
+impl RunArgs {
+    /// The episode these flags describe (no signal handler attached yet).
+    pub fn into_config(self) -> Result<RunConfig> {
+        Ok(RunConfig {
+            world: self.world,
+            budget: self.budget,
+            seed: self.seed,
+            camera_rate: self.options.camera_rate,
+            think_period: 1.0,
+            iterations: self.options.iterations,
+            latency: self.options.latency,
+            planner: self.planner,
+            planner_options: self.options.planners,
+            sensor: SensorConfig {
+                width: self.options.view.width,
+                height: self.options.view.height,
+                ..SensorConfig::default()
+            },
+            test_views: self.options.test_views,
+            ply_sh_degree: self.options.ply_sh_degree,
+            spawn: self.options.spawn.parse().map_err(anyhow::Error::msg)?,
+            engine: self.options.view.engine,
+            overwrite: self.overwrite,
+            rerun: self.rerun.target(self.rerun_map_every),
+            stop: StopRequest::default(),
+            fail_writes_after: None,
+            out: self.out,
+        })
+    }
+}
+
+/// `splatloop run`'s flags, parsed on their own.
+#[derive(clap::Parser)]
+#[command(name = "splatloop run", no_binary_name = true)]
+struct RunLine {
+    #[command(flatten)]
+    args: RunArgs,
+}
+
+/// The episode `splatloop run WORDS` would run: the same flags, defaults and errors (the
+/// Python package builds its episodes with this).
+pub fn run_config_from_words(words: Vec<String>) -> Result<RunConfig> {
+    use clap::Parser;
+    let line = RunLine::try_parse_from(words).map_err(|e| anyhow::anyhow!("{}", e.render()))?;
+    line.args.into_config()
+}
+
+/// Runs the episode with a progress bar; `Some(code)` when a signal stopped it.
 pub fn run(args: RunArgs) -> Result<Option<u8>> {
-    let config = RunConfig {
-        world: args.world,
-        budget: args.budget,
-        seed: args.seed,
-        camera_rate: args.options.camera_rate,
-        think_period: 1.0,
-        iterations: args.options.iterations,
-        latency: args.options.latency,
-        planner: args.planner,
-        planner_options: args.options.planners,
-        sensor: SensorConfig {
-            width: args.options.view.width,
-            height: args.options.view.height,
-            ..SensorConfig::default()
-        },
-        test_views: args.options.test_views,
-        ply_sh_degree: args.options.ply_sh_degree,
-        spawn: args.options.spawn.parse().map_err(anyhow::Error::msg)?,
-        engine: args.options.view.engine,
-        overwrite: args.overwrite,
-        rerun: args.rerun.target(args.rerun_map_every),
-        stop: StopRequest::default(),
-        fail_writes_after: None,
-        out: args.out,
-    };
+    let config = args.into_config()?;
     // Ctrl-C or a cluster's SIGTERM stops the episode at its next tick; it is still written.
     for (signal, code) in [
         (signal_hook::consts::SIGINT, StopRequest::SIGINT),

@@ -297,6 +297,18 @@ impl Episode {
         &self.config
     }
 
+    /// The map's coverage of the hidden test set now (metrics.json's coverage; `None` without
+    /// test views): a caller's reward, measured on demand.
+    pub fn coverage_now(&self) -> Option<f64> {
+        (!self.tests.surface.is_empty()).then(|| {
+            autonomy::metrics::coverage(
+                &self.tests.surface,
+                &self.mapper.map().gaussians.means,
+                crate::evaluate::COVERAGE_RADIUS,
+            )
+        })
+    }
+
     /// Why the episode ended, once it has.
     pub fn ended(&self) -> Option<&str> {
         self.ended.as_deref()

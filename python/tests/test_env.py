@@ -1,0 +1,126 @@
+"""splatloop from Python: the Gymnasium environment against Gymnasium's own checker and the
+dataset it writes, bad input, threads, and datasets as arrays."""
+
+import json
+import math
+import os
+import subprocess
+import threading
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import splatloop
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+ROOM = os.path.join(ROOT, "worlds", "room.xml")
+# Small and quick: 160x120, 10 hidden views, a 20 s budget, the world waits for the mapper.
+SMALL = dict(world=ROOM, width=160, height=120, latency="none", engine="cpu", test_views=10, budget=20)
+
+
+def test_gymnasiums_checker_passes_and_make_gives_the_same_environment():
+    env = splatloop.Env(**SMALL)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the checker's advice about unbounded Box spaces
+        check_env(env, skip_render_check=True)
+    env.close()
+    made = gym.make("splatloop/Explore-v0", **SMALL)
+    assert made.observation_space["rgb"].shape == (120, 160, 3)
+    made.close()
+
+
+def test_a_random_walk_returns_the_declared_arrays_and_the_dataset_holds_its_depth(tmp_path):
+    out = tmp_path / "walk"
+    env = splatloop.Env(out=str(out), **SMALL)
+    obs, info = env.reset(seed=3)
+    rng = np.random.default_rng(0)
+    seen = []
+    total = 0.0
+    for _ in range(20):
+        for key, space in env.observation_space.spaces.items():
+            assert obs[key].shape == space.shape, key
+            assert obs[key].dtype == space.dtype, key
+        assert env.observation_space.contains(obs)
+        seen.append((info["time"], obs["depth"].copy(), obs["pose"].copy()))
+        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        assert not terminated
+        total += reward
+        if truncated:
+            break
+    assert truncated and math.isclose(info["time"], 20.0, abs_tol=0.01)
+    # Rewards add up to the coverage gained, less the contact penalty.
+    assert total <= info["coverage"] + 1e-9
+    assert info["coverage"] > 0.05
+    metrics = env.write()
+    assert metrics["ended"] == "budget" and metrics["frames"] == 100
+    # The first frame is the dataset's first: depth within the PNGs' 0.2 mm quantisation.
+    dataset = splatloop.Dataset(str(out))
+    assert len(dataset) == 100
+    for time, depth, pose in seen[:3]:
+        frame = next(dataset[i] for i in range(len(dataset)) if abs(dataset[i]["timestamp"] - time) < 1e-6)
+        assert np.max(np.abs(frame["depth"] - depth)) <= 0.5 / 5000 + 1e-6
+        assert np.allclose(frame["pose"], pose, atol=1e-5)
+    env.close()
+
+
+def test_bad_input_raises_the_named_exceptions():
+    with pytest.raises(FileNotFoundError, match="nowhere.xml"):
+        splatloop.Env(world="nowhere.xml")
+    with pytest.raises(ValueError, match="possible values"):
+        splatloop.Env(world=ROOM, latency="fast")
+    with pytest.raises(ValueError, match="budget"):
+        splatloop.Env(**{**SMALL, "budget": -1})
+    env = splatloop.Env(**SMALL)
+    env.reset(seed=1)
+    with pytest.raises(ValueError, match="finite"):
+        env.step([float("nan"), 0.0])
+    with pytest.raises(ValueError, match=r"shape \(2,\)"):
+        env.step([0.1, 0.2, 0.3])
+    with pytest.warns(UserWarning, match="clipped"):
+        env.step([5.0, 0.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # said once
+        env.step([5.0, 0.0])
+    errors = []
+
+    def elsewhere():
+        try:
+            env.step([0.0, 0.0])
+        except RuntimeError as e:
+            errors.append(str(e))
+
+    thread = threading.Thread(target=elsewhere)
+    thread.start()
+    thread.join()
+    assert errors and "thread" in errors[0]
+    env.close()
+
+
+def test_a_recorded_dataset_reads_back_as_arrays(tmp_path):
+    binary = os.path.join(ROOT, "target", "debug", "splatloop")
+    if not os.path.exists(binary):
+        binary = os.path.join(ROOT, "target", "release", "splatloop")
+    out = tmp_path / "rec"
+    subprocess.run(
+        [binary, "record", "--world", ROOM, "--duration", "2", "--width", "80", "--height", "60", "--out", str(out)],
+        check=True,
+        capture_output=True,
+    )
+    dataset = splatloop.Dataset(str(out))
+    lines = [l for l in (out / "groundtruth.txt").read_text().splitlines() if l and not l.startswith("#")]
+    assert len(dataset) == len(lines) == 11  # 0 to 2 s at 5 frames per second
+    frame = dataset[-1]
+    assert frame["rgb"].shape == (60, 80, 3) and frame["rgb"].dtype == np.uint8
+    assert frame["depth"].shape == (60, 80) and frame["depth"].dtype == np.float32
+    camera = json.loads((out / "camera.json").read_text())
+    assert np.allclose(frame["K"], np.array(camera["K"]))
+    t, tx, ty, tz = (float(x) for x in lines[-1].split()[:4])
+    assert frame["timestamp"] == pytest.approx(t)
+    assert np.allclose(frame["pose"][:3, 3], [tx, ty, tz], atol=1e-6)
+    with pytest.raises(IndexError):
+        dataset[11]
+    with pytest.raises(FileNotFoundError):
+        splatloop.Dataset(str(tmp_path / "none"))
