@@ -116,6 +116,40 @@ impl Episode {
         Ok(self.get()?.coverage_now())
     }
 
+    /// The map as arrays: `means` (N, 3), `colours` (N, 3) in [0, 1], `opacities` (N,),
+    /// `radii` (N,) metres, `uncertainty` (N,) (RT-GuIDE's, metres moved in the last step).
+    fn map<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let map = self.get()?.map();
+        let g = &map.gaussians;
+        let n = g.len();
+        let flat = |v: &[[f32; 3]]| v.iter().flatten().copied().collect::<Vec<f32>>();
+        let dict = PyDict::new(py);
+        dict.set_item(
+            "means",
+            PyArray1::from_vec(py, flat(&g.means)).reshape([n, 3])?,
+        )?;
+        dict.set_item(
+            "colours",
+            PyArray1::from_vec(py, flat(&g.colours)).reshape([n, 3])?,
+        )?;
+        let opacities: Vec<f32> = g
+            .logit_opacities
+            .iter()
+            .map(|l| 1.0 / (1.0 + (-l).exp()))
+            .collect();
+        dict.set_item("opacities", PyArray1::from_vec(py, opacities))?;
+        let radii: Vec<f32> = g.log_radii.iter().map(|l| l.exp()).collect();
+        dict.set_item("radii", PyArray1::from_vec(py, radii))?;
+        dict.set_item("uncertainty", PyArray1::from_slice(py, &map.uncertainty))?;
+        Ok(dict)
+    }
+
+    /// Writes the map as a 3DGS PLY (spherical-harmonic degree 0, with `uncertainty`).
+    fn save_ply(&mut self, path: PathBuf) -> PyResult<()> {
+        autonomy::ply::write_with_sh_degree(self.get()?.map(), &path, 0)
+            .map_err(|e| PyRuntimeError::new_err(format!("cannot write {}: {e}", path.display())))
+    }
+
     /// Gaussians in the map.
     fn gaussians(&mut self) -> PyResult<usize> {
         Ok(self.get()?.map().len())

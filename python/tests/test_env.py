@@ -54,8 +54,17 @@ def test_a_random_walk_returns_the_declared_arrays_and_the_dataset_holds_its_dep
     # Rewards add up to the coverage gained, less the contact penalty.
     assert total <= info["coverage"] + 1e-9
     assert info["coverage"] > 0.05
+    arrays = env.map
+    n = len(arrays["means"])
+    assert n == info["gaussians"] > 1000
+    assert arrays["colours"].shape == (n, 3) and arrays["radii"].shape == (n,)
+    assert np.all((arrays["opacities"] > 0) & (arrays["opacities"] < 1)) and np.all(arrays["radii"] > 0)
+    env.save_ply(str(tmp_path / "map.ply"))
     metrics = env.write()
     assert metrics["ended"] == "budget" and metrics["frames"] == 100
+    assert metrics["gaussians"] == n
+    # The map saved mid-episode is the one written at its end (no step between them).
+    assert (tmp_path / "map.ply").read_bytes() == (out / "map.ply").read_bytes()
     # The first frame is the dataset's first: depth within the PNGs' 0.2 mm quantisation.
     dataset = splatloop.Dataset(str(out))
     assert len(dataset) == 100

@@ -177,6 +177,23 @@ class Env(gym.Env):
         }
         return self._last_obs, float(reward), terminated, truncated, info
 
+    @property
+    def map(self) -> dict:
+        """The current episode's map as arrays: ``means`` (N, 3), ``colours`` (N, 3),
+        ``opacities`` (N,), ``radii`` (N,) metres, ``uncertainty`` (N,); ``len(env.map["means"])``
+        is the Gaussian count."""
+        self._check_thread()
+        if self._episode is None:
+            raise RuntimeError("no episode: call reset() first")
+        return self._episode.map()
+
+    def save_ply(self, path: str) -> None:
+        """Writes the current map as a 3DGS PLY (with RT-GuIDE's ``uncertainty``)."""
+        self._check_thread()
+        if self._episode is None:
+            raise RuntimeError("no episode: call reset() first")
+        self._episode.save_ply(os.fspath(path))
+
     def render(self):
         """The newest camera image (``render_mode="rgb_array"``)."""
         return self._last_obs["rgb"] if self.render_mode == "rgb_array" else None
