@@ -133,3 +133,33 @@ def test_a_recorded_dataset_reads_back_as_arrays(tmp_path):
         dataset[11]
     with pytest.raises(FileNotFoundError):
         splatloop.Dataset(str(tmp_path / "none"))
+
+
+def test_several_envs_in_one_process_and_in_async_subprocesses_agree():
+    action = np.array([0.2, 0.1], np.float32)
+    local = [splatloop.Env(**SMALL) for _ in range(2)]
+    depths = []
+    for env in local:
+        env.reset(seed=2)
+        for _ in range(3):
+            obs, *_ = env.step(action)
+        depths.append(obs["depth"])
+    assert np.array_equal(depths[0], depths[1])
+    for env in local:
+        env.close()
+    # Spawned, not forked: a child must not inherit this process's EGL contexts.
+    envs = gym.make_vec(
+        "splatloop/Explore-v0",
+        num_envs=2,
+        vectorization_mode="async",
+        vector_kwargs={"context": "spawn"},
+        **SMALL,
+    )
+    try:
+        obs, _ = envs.reset(seed=[2, 2])
+        for _ in range(3):
+            obs, *_ = envs.step(np.stack([action, action]))
+        assert obs["rgb"].shape == (2, 120, 160, 3)
+        assert np.array_equal(obs["depth"][0], depths[0]) and np.array_equal(obs["depth"][1], depths[0])
+    finally:
+        envs.close()
