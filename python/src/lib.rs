@@ -119,29 +119,7 @@ impl Episode {
     /// The map as arrays: `means` (N, 3), `colours` (N, 3) in [0, 1], `opacities` (N,),
     /// `radii` (N,) metres, `uncertainty` (N,) (RT-GuIDE's, metres moved in the last step).
     fn map<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let map = self.get()?.map();
-        let g = &map.gaussians;
-        let n = g.len();
-        let flat = |v: &[[f32; 3]]| v.iter().flatten().copied().collect::<Vec<f32>>();
-        let dict = PyDict::new(py);
-        dict.set_item(
-            "means",
-            PyArray1::from_vec(py, flat(&g.means)).reshape([n, 3])?,
-        )?;
-        dict.set_item(
-            "colours",
-            PyArray1::from_vec(py, flat(&g.colours)).reshape([n, 3])?,
-        )?;
-        let opacities: Vec<f32> = g
-            .logit_opacities
-            .iter()
-            .map(|l| 1.0 / (1.0 + (-l).exp()))
-            .collect();
-        dict.set_item("opacities", PyArray1::from_vec(py, opacities))?;
-        let radii: Vec<f32> = g.log_radii.iter().map(|l| l.exp()).collect();
-        dict.set_item("radii", PyArray1::from_vec(py, radii))?;
-        dict.set_item("uncertainty", PyArray1::from_slice(py, &map.uncertainty))?;
-        Ok(dict)
+        map_dict(py, self.get()?.map())
     }
 
     /// Writes the map as a 3DGS PLY (spherical-harmonic degree 0, with `uncertainty`).
@@ -176,6 +154,194 @@ impl Episode {
         let metrics = episode.finish().map_err(to_py)?;
         serde_json::to_string(&metrics).map_err(|e| PyRuntimeError::new_err(e.to_string()))
     }
+}
+
+/// A planner written in Python, in the episode's loop: every think period `obj.plan(observation,
+/// map)` with `observation` = {"start": (x, y, theta)} (the pose the plan begins from) and `map`
+/// the map's arrays; it returns a dict with `commands` ([(v, w), ...], one per `period`
+/// seconds, default 1) to drive, a string to end the episode with that reason, or `None` for
+/// no plan (the host's recovery). `obj.observe(frame)`, when defined, sees every frame (`depth`,
+/// `pose`, `K`). Its decisions go through the same controller as the built-in planners'.
+struct PythonPlanner {
+    obj: Py<PyAny>,
+    class: String,
+    /// The first exception the object raised; the episode ends on it and `run` re-raises it.
+    error: std::rc::Rc<std::cell::RefCell<Option<PyErr>>>,
+}
+
+impl PythonPlanner {
+    fn decide(
+        &self,
+        py: Python<'_>,
+        map: &autonomy::map::GaussianMap,
+        start: splatloop::robot::Pose2,
+    ) -> PyResult<autonomy::explore::Decision> {
+        use autonomy::explore::{Decision, Plan, PlanFailure};
+        let observation = PyDict::new(py);
+        observation.set_item("start", (start.x, start.y, start.theta))?;
+        let answer = self
+            .obj
+            .call_method1(py, "plan", (observation, map_dict(py, map)?))?;
+        let answer = answer.bind(py);
+        if answer.is_none() {
+            return Ok(Decision::Fail(PlanFailure::GoalUnreachable));
+        }
+        if let Ok(reason) = answer.extract::<String>() {
+            return Ok(Decision::Done(reason));
+        }
+        let commands: Vec<(f64, f64)> = answer.get_item("commands")?.extract()?;
+        let period: f64 = match answer.get_item("period") {
+            Ok(p) => p.extract()?,
+            Err(_) => 1.0,
+        };
+        let limits = autonomy::drive::DriveLimits::default();
+        if !(period.is_finite() && period > 0.0) || commands.is_empty() {
+            return Err(PyValueError::new_err(format!(
+                "a plan needs commands and a positive period; got {} commands, period {period}",
+                commands.len()
+            )));
+        }
+        let mut states = vec![start];
+        let mut drive = Vec::with_capacity(commands.len());
+        for (v, w) in commands {
+            let u = UnicycleCommand { v, w };
+            if !(v.is_finite() && w.is_finite() && limits.admits(u)) {
+                return Err(PyValueError::new_err(format!(
+                    "plan command ({v}, {w}) is outside the drive's limits (0 <= v <= {} m/s, |w| <= {} rad/s)",
+                    limits.max_forward, limits.max_turn
+                )));
+            }
+            let last = states[states.len() - 1];
+            states.push(autonomy::drive::advance(&last, &u, period));
+            drive.push(u);
+        }
+        Ok(Decision::Go(Plan::unsearched(drive, period, states)))
+    }
+}
+
+impl autonomy::explore::Planner for PythonPlanner {
+    fn name(&self) -> &'static str {
+        "python"
+    }
+
+    fn settings(&self) -> serde_json::Value {
+        serde_json::json!({ "class": self.class })
+    }
+
+    fn observe(
+        &mut self,
+        observation: &autonomy::explore::Observation<'_>,
+        _map: &autonomy::map::GaussianMap,
+    ) {
+        if self.error.borrow().is_some() {
+            return;
+        }
+        Python::with_gil(|py| {
+            let outcome = (|| -> PyResult<()> {
+                if !self.obj.bind(py).hasattr("observe")? {
+                    return Ok(());
+                }
+                let camera = observation.camera;
+                let frame = RgbdFrame {
+                    time: 0.0,
+                    rgb: vec![0; 3 * observation.depth.len()],
+                    depth: observation.depth.to_vec(),
+                    camera: *camera,
+                };
+                let dict = frame_dict(py, &frame)?;
+                dict.del_item("rgb")?;
+                dict.del_item("time")?;
+                self.obj.call_method1(py, "observe", (dict,))?;
+                Ok(())
+            })();
+            if let Err(e) = outcome {
+                *self.error.borrow_mut() = Some(e);
+            }
+        });
+    }
+
+    fn plan(
+        &mut self,
+        map: &autonomy::map::GaussianMap,
+        start: splatloop::robot::Pose2,
+    ) -> autonomy::explore::Decision {
+        if let Some(e) = self.error.borrow().as_ref() {
+            return autonomy::explore::Decision::Done(format!("the Python planner raised: {e}"));
+        }
+        Python::with_gil(|py| match self.decide(py, map, start) {
+            Ok(decision) => decision,
+            Err(e) => {
+                let reason = format!("the Python planner raised: {e}");
+                *self.error.borrow_mut() = Some(e);
+                autonomy::explore::Decision::Done(reason)
+            }
+        })
+    }
+}
+
+/// Runs a whole episode (`splatloop run`'s flags in `words`) with `planner`, a Python object,
+/// deciding every think period; writes the folder and returns metrics.json as a JSON string.
+/// An exception the planner raised ends the episode (still written) and is raised again.
+#[pyfunction]
+fn run_with_planner(py: Python<'_>, words: Vec<String>, planner: Py<PyAny>) -> PyResult<String> {
+    let config = splatloop::commands::run_config_from_words(words)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let class = planner
+        .bind(py)
+        .get_type()
+        .qualname()
+        .map(|n| n.to_string())
+        .unwrap_or_else(|_| "?".to_owned());
+    let error = std::rc::Rc::new(std::cell::RefCell::new(None));
+    let bridge = PythonPlanner {
+        obj: planner,
+        class,
+        error: error.clone(),
+    };
+    let mut episode =
+        splatloop::episode::Episode::with_planner(&config, Box::new(bridge)).map_err(to_py)?;
+    let outcome = loop {
+        match episode.step() {
+            Ok(report) if report.ended.is_some() => break Ok(()),
+            Ok(_) => {}
+            Err(e) => break Err(e),
+        }
+    };
+    let metrics = episode.finish().map_err(to_py)?;
+    outcome.map_err(to_py)?;
+    if let Some(e) = error.borrow_mut().take() {
+        return Err(e);
+    }
+    serde_json::to_string(&metrics).map_err(|e| PyRuntimeError::new_err(e.to_string()))
+}
+
+/// The map's arrays (see `Episode::map`).
+fn map_dict<'py>(
+    py: Python<'py>,
+    map: &autonomy::map::GaussianMap,
+) -> PyResult<Bound<'py, PyDict>> {
+    let g = &map.gaussians;
+    let n = g.len();
+    let flat = |v: &[[f32; 3]]| v.iter().flatten().copied().collect::<Vec<f32>>();
+    let dict = PyDict::new(py);
+    dict.set_item(
+        "means",
+        PyArray1::from_vec(py, flat(&g.means)).reshape([n, 3])?,
+    )?;
+    dict.set_item(
+        "colours",
+        PyArray1::from_vec(py, flat(&g.colours)).reshape([n, 3])?,
+    )?;
+    let opacities: Vec<f32> = g
+        .logit_opacities
+        .iter()
+        .map(|l| 1.0 / (1.0 + (-l).exp()))
+        .collect();
+    dict.set_item("opacities", PyArray1::from_vec(py, opacities))?;
+    let radii: Vec<f32> = g.log_radii.iter().map(|l| l.exp()).collect();
+    dict.set_item("radii", PyArray1::from_vec(py, radii))?;
+    dict.set_item("uncertainty", PyArray1::from_slice(py, &map.uncertainty))?;
+    Ok(dict)
 }
 
 /// An episode or `record` folder read frame by frame (torn last frames skipped).
@@ -224,6 +390,7 @@ impl Dataset {
 fn _splatloop(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Episode>()?;
     m.add_class::<Dataset>()?;
+    m.add_function(wrap_pyfunction!(run_with_planner, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

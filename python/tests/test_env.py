@@ -163,3 +163,56 @@ def test_several_envs_in_one_process_and_in_async_subprocesses_agree():
         assert np.array_equal(obs["depth"][0], depths[0]) and np.array_equal(obs["depth"][1], depths[0])
     finally:
         envs.close()
+
+
+class Arcs:
+    """A planner in Python: a left arc, one second at a time; it counts frames and plans."""
+
+    def __init__(self):
+        self.frames = 0
+        self.plans = []
+
+    def observe(self, frame):
+        assert frame["depth"].dtype == np.float32 and frame["pose"].shape == (4, 4)
+        self.frames += 1
+
+    def plan(self, observation, map):
+        self.plans.append((observation["start"], len(map["means"])))
+        return {"commands": [(0.2, 0.4)], "period": 1.0}
+
+
+def test_a_python_planner_drives_the_loop_through_the_same_controller(tmp_path):
+    planner = Arcs()
+    metrics = splatloop.run(planner, out=str(tmp_path / "arcs"), **{**SMALL, "budget": 6})
+    assert metrics["planner"] == "python" and metrics["ended"] == "budget"
+    assert metrics["planner_settings"]["class"] == "Arcs"
+    assert planner.frames == 30 and len(planner.plans) == 6
+    # Every plan starts where the last one's arc ended (latency none: the pose now), and the
+    # map grows under it.
+    (x0, y0, t0), n0 = planner.plans[0]
+    (x5, y5, t5), n5 = planner.plans[5]
+    assert n5 > n0 > 0
+    turned = math.remainder(t5 - t0, math.tau)
+    assert abs(turned - 5 * 0.4) < 0.1, turned
+    chord = math.hypot(x5 - x0, y5 - y0)
+    radius = 0.2 / 0.4
+    assert abs(chord - 2 * radius * math.sin(turned / 2)) < 0.05, chord
+
+
+def test_a_python_planners_bad_plan_ends_the_episode_and_is_raised(tmp_path):
+    class TooFast:
+        def plan(self, observation, map):
+            return {"commands": [(3.0, 0.0)]}
+
+    with pytest.raises(ValueError, match="outside the drive's limits"):
+        splatloop.run(TooFast(), out=str(tmp_path / "fast"), **{**SMALL, "budget": 3})
+    # Written all the same, saying why it ended.
+    metrics = json.loads((tmp_path / "fast" / "metrics.json").read_text())
+    assert metrics["ended"].startswith("the Python planner raised")
+
+    class Done:
+        def plan(self, observation, map):
+            return "nothing to see"
+
+    metrics = splatloop.run(Done(), out=str(tmp_path / "done"), **{**SMALL, "budget": 3})
+    assert metrics["ended"] == "nothing to see"

@@ -48,6 +48,8 @@ pub struct Episode {
     pub(super) mapper: Mapper,
     pub(super) planner: Box<dyn Planner>,
     pub(super) planner_settings: serde_json::Value,
+    /// The planner's name for metrics.json and the picture's title.
+    pub(super) planner_name: &'static str,
     pub(super) engine_name: String,
     pub(super) tests: TestSet,
     pub(super) start_pose: Pose2,
@@ -123,6 +125,17 @@ impl Episode {
     /// Loads the world, places the robot, opens the camera, the episode folder, the recording,
     /// the mapper and the planner, and samples the hidden test set; nothing is stepped yet.
     pub fn new(config: &RunConfig) -> Result<Episode> {
+        Self::build(config, None)
+    }
+
+    /// An episode driven by `planner` instead of the built-in one `config.planner` names
+    /// (a caller's own, e.g. one written in Python): the same tick, the same executor rules
+    /// for its decisions, its own name in metrics.json.
+    pub fn with_planner(config: &RunConfig, planner: Box<dyn Planner>) -> Result<Episode> {
+        Self::build(config, Some(planner))
+    }
+
+    fn build(config: &RunConfig, custom: Option<Box<dyn Planner>>) -> Result<Episode> {
         config.validate()?;
         config.rerun.check(&config.out, config.overwrite)?;
         let wall = Instant::now();
@@ -141,7 +154,7 @@ impl Episode {
         let title = format!(
             "run {} {} seed {}",
             config.world.display(),
-            config.planner.name(),
+            custom.as_ref().map_or(config.planner.name(), |p| p.name()),
             config.seed
         );
         let rerun = RerunLog::open(&config.rerun, &title)?;
@@ -164,7 +177,16 @@ impl Episode {
             period: config.think_period,
             settled_omega,
         };
-        let planner = planners::build(config.planner, &config.planner_options, &world, context)?;
+        let (planner, planner_name) = match custom {
+            Some(planner) => {
+                let name = planner.name();
+                (planner, name)
+            }
+            None => (
+                planners::build(config.planner, &config.planner_options, &world, context)?,
+                config.planner.name(),
+            ),
+        };
         let planner_settings = planner.settings();
         // Fixed before the episode so coverage can be reported as it grows.
         let tests = TestSet::sample(
@@ -202,6 +224,7 @@ impl Episode {
             mapper,
             planner,
             planner_settings,
+            planner_name,
             engine_name,
             tests,
             start_pose,

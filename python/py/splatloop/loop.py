@@ -1,0 +1,32 @@
+"""``splatloop.run``: a whole episode with your own planner in splatloop's loop."""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any
+
+from ._splatloop import run_with_planner
+from .env import _words
+
+
+def run(planner: Any, out: str, **options: Any) -> dict:
+    """Runs one episode as ``splatloop run`` does (its options as keyword arguments, the same
+    defaults), with ``planner`` deciding every think period instead of a built-in one, and
+    writes the episode folder to ``out`` (new or empty; ``overwrite=True`` replaces an earlier
+    episode). Returns metrics.json's contents.
+
+    ``planner.plan(observation, map)`` gets ``observation["start"]`` = (x, y, theta), the pose
+    the plan begins from, and ``map`` (``means``, ``colours``, ``opacities``, ``radii``,
+    ``uncertainty`` arrays); it returns ``{"commands": [(v, w), ...], "period": 1.0}`` to drive
+    (checked against the drive's limits), a string to end the episode with that reason, or
+    ``None`` for no plan (the host backs off or looks around, as for ours). ``planner.observe(frame)``,
+    if defined, sees every frame's ``depth``, ``pose`` and ``K``. With ``latency="wall"`` the
+    planner's own time is charged to simulated time, as ours is. An exception it raises ends
+    the episode, which is still written, and is raised again here.
+    """
+    if "planner" in options:
+        raise ValueError("give the planner object as planner=...; built-in ones run with splatloop.Env or the CLI")
+    overwrite = bool(options.pop("overwrite", False))
+    words = _words({**options, "out": os.fspath(out)}) + (["--overwrite"] if overwrite else [])
+    return json.loads(run_with_planner(words, planner))
