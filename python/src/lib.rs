@@ -315,6 +315,17 @@ fn run_with_planner(py: Python<'_>, words: Vec<String>, planner: Py<PyAny>) -> P
     serde_json::to_string(&metrics).map_err(|e| PyRuntimeError::new_err(e.to_string()))
 }
 
+/// Records an open-loop drive as `splatloop record WORDS` does; returns (frames, collision
+/// steps, final pose (x, y, theta)).
+#[pyfunction]
+fn record_drive(words: Vec<String>) -> PyResult<(usize, usize, (f64, f64, f64))> {
+    let config = splatloop::commands::record_config_from_words(words)
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let summary = splatloop::record::record(&config, &mut |_| {}).map_err(to_py)?;
+    let p = summary.final_pose;
+    Ok((summary.frames, summary.collision_steps, (p.x, p.y, p.theta)))
+}
+
 /// The map's arrays (see `Episode::map`).
 fn map_dict<'py>(
     py: Python<'py>,
@@ -391,6 +402,7 @@ fn _splatloop(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Episode>()?;
     m.add_class::<Dataset>()?;
     m.add_function(wrap_pyfunction!(run_with_planner, m)?)?;
+    m.add_function(wrap_pyfunction!(record_drive, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

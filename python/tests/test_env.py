@@ -133,6 +133,14 @@ def test_a_recorded_dataset_reads_back_as_arrays(tmp_path):
         dataset[11]
     with pytest.raises(FileNotFoundError):
         splatloop.Dataset(str(tmp_path / "none"))
+    # The same drive recorded from Python writes the same files.
+    again = tmp_path / "again"
+    summary = splatloop.record(str(again), world=ROOM, duration=2, width=80, height=60)
+    assert summary["frames"] == 11 and summary["collision_steps"] == 0
+    for name in ["groundtruth.txt", "camera.json", "depth/000005.png", "rgb/000005.png"]:
+        assert (again / name).read_bytes() == (out / name).read_bytes(), name
+    with pytest.raises(ValueError, match="duration"):
+        splatloop.record(str(tmp_path / "bad"), world=ROOM, duration=-2)
 
 
 def test_several_envs_in_one_process_and_in_async_subprocesses_agree():

@@ -16,7 +16,7 @@ pub(crate) mod world;
 
 pub use bench::cli::{BenchArgs, BenchTarget};
 pub use eval::EvalArgs;
-pub use record::RecordArgs;
+pub use record::{record_config_from_words, RecordArgs};
 pub use render::RenderArgs;
 pub use run::{run_config_from_words, RunArgs, RunOptions, ViewArgs};
 pub use sweep::cli::{SweepArgs, SweepBackend};

@@ -53,25 +53,50 @@ pub struct RecordArgs {
     rerun: RerunArgs,
 }
 
+impl RecordArgs {
+    /// The drive these flags describe.
+    pub fn into_config(self) -> RecordConfig {
+        let args = self;
+        RecordConfig {
+            world: args.world,
+            controls: args.controls,
+            duration: args.duration,
+            frame_rate: args.fps,
+            seed: args.seed,
+            sensor: SensorConfig {
+                width: args.width,
+                height: args.height,
+                max_range: args.max_range,
+                depth_noise_sigma: args.depth_noise,
+                ..SensorConfig::default()
+            },
+            start: args.start,
+            overwrite: args.overwrite,
+            rerun: args.rerun.target(1),
+            out: args.out,
+        }
+    }
+}
+
+/// `splatloop record`'s flags, parsed on their own.
+#[derive(clap::Parser)]
+#[command(name = "splatloop record", no_binary_name = true)]
+struct RecordLine {
+    #[command(flatten)]
+    args: RecordArgs,
+}
+
+/// The drive `splatloop record WORDS` would record: the same flags, defaults and errors (the
+/// Python package's `record` uses this).
+pub fn record_config_from_words(words: Vec<String>) -> Result<RecordConfig> {
+    use clap::Parser;
+    let line = RecordLine::try_parse_from(words).map_err(|e| anyhow::anyhow!("{}", e.render()))?;
+    Ok(line.args.into_config())
+}
+
+/// Records the drive with a progress bar.
 pub fn record(args: RecordArgs) -> Result<()> {
-    let config = RecordConfig {
-        world: args.world,
-        controls: args.controls,
-        duration: args.duration,
-        frame_rate: args.fps,
-        seed: args.seed,
-        sensor: SensorConfig {
-            width: args.width,
-            height: args.height,
-            max_range: args.max_range,
-            depth_noise_sigma: args.depth_noise,
-            ..SensorConfig::default()
-        },
-        start: args.start,
-        overwrite: args.overwrite,
-        rerun: args.rerun.target(1),
-        out: args.out,
-    };
+    let config = args.into_config();
     let mut bar = Progress::new(
         (config.duration * 1000.0).round() as u64,
         "{spinner} recording [{bar:30}] {msg} sim s ({elapsed} wall, eta {eta})",

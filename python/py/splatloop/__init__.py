@@ -12,9 +12,9 @@ frame. ``gymnasium.make("splatloop/Explore-v0", ...)`` gives the same environmen
 
 from ._splatloop import Dataset, Episode, __version__
 from .env import COLLISION_PENALTY, Env
-from .loop import run
+from .loop import record, run
 
-__all__ = ["COLLISION_PENALTY", "Dataset", "Env", "Episode", "run", "__version__"]
+__all__ = ["COLLISION_PENALTY", "Dataset", "Env", "Episode", "record", "run", "__version__"]
 
 try:
     import gymnasium as _gymnasium

@@ -6,7 +6,7 @@ import json
 import os
 from typing import Any
 
-from ._splatloop import run_with_planner
+from ._splatloop import record_drive, run_with_planner
 from .env import _words
 
 
@@ -30,3 +30,14 @@ def run(planner: Any, out: str, **options: Any) -> dict:
     overwrite = bool(options.pop("overwrite", False))
     words = _words({**options, "out": os.fspath(out)}) + (["--overwrite"] if overwrite else [])
     return json.loads(run_with_planner(words, planner))
+
+
+def record(out: str, **options: Any) -> dict:
+    """Drives the robot open-loop and writes an RGB-D dataset with exact poses, as
+    ``splatloop record`` does (its options as keyword arguments: ``world``, ``controls``,
+    ``duration``, ``fps``, ``width``, ``height``, ...; ``overwrite=True`` replaces an earlier
+    dataset). Returns the frame count, the collision steps and the final pose."""
+    overwrite = bool(options.pop("overwrite", False))
+    words = _words({**options, "out": os.fspath(out)}) + (["--overwrite"] if overwrite else [])
+    frames, collision_steps, final_pose = record_drive(words)
+    return {"frames": frames, "collision_steps": collision_steps, "final_pose": final_pose}
