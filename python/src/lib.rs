@@ -28,19 +28,33 @@ fn to_py(error: SimError) -> PyErr {
 fn frame_dict<'py>(py: Python<'py>, frame: &RgbdFrame) -> PyResult<Bound<'py, PyDict>> {
     let k = &frame.camera.intrinsics;
     let (w, h) = (k.width as usize, k.height as usize);
-    let rgb = PyArray1::from_slice(py, &frame.rgb).reshape([h, w, 3])?;
-    let depth = PyArray1::from_slice(py, &frame.depth).reshape([h, w])?;
-    let m = frame.camera.world_from_camera.to_homogeneous();
+    let dict = depth_dict(py, &frame.depth, &frame.camera)?;
+    dict.set_item(
+        "rgb",
+        PyArray1::from_slice(py, &frame.rgb).reshape([h, w, 3])?,
+    )?;
+    dict.set_item("time", frame.time)?;
+    Ok(dict)
+}
+
+/// A depth image and its camera as arrays: `depth`, `pose`, `K` (see `frame_dict`).
+fn depth_dict<'py>(
+    py: Python<'py>,
+    depth: &[f32],
+    camera: &autonomy::camera::PinholeCamera,
+) -> PyResult<Bound<'py, PyDict>> {
+    let k = &camera.intrinsics;
+    let (w, h) = (k.width as usize, k.height as usize);
+    let depth = PyArray1::from_slice(py, depth).reshape([h, w])?;
+    let m = camera.world_from_camera.to_homogeneous();
     let pose: Vec<f64> = (0..16).map(|i| m[(i / 4, i % 4)]).collect();
     let pose = PyArray1::from_vec(py, pose).reshape([4, 4])?;
     let intrinsics = vec![k.fx, 0.0, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0];
     let intrinsics = PyArray1::from_vec(py, intrinsics).reshape([3, 3])?;
     let dict = PyDict::new(py);
-    dict.set_item("rgb", rgb)?;
     dict.set_item("depth", depth)?;
     dict.set_item("pose", pose)?;
     dict.set_item("K", intrinsics)?;
-    dict.set_item("time", frame.time)?;
     Ok(dict)
 }
 
@@ -241,16 +255,7 @@ impl autonomy::explore::Planner for PythonPlanner {
                 if !self.obj.bind(py).hasattr("observe")? {
                     return Ok(());
                 }
-                let camera = observation.camera;
-                let frame = RgbdFrame {
-                    time: 0.0,
-                    rgb: vec![0; 3 * observation.depth.len()],
-                    depth: observation.depth.to_vec(),
-                    camera: *camera,
-                };
-                let dict = frame_dict(py, &frame)?;
-                dict.del_item("rgb")?;
-                dict.del_item("time")?;
+                let dict = depth_dict(py, observation.depth, observation.camera)?;
                 self.obj.call_method1(py, "observe", (dict,))?;
                 Ok(())
             })();
@@ -298,17 +303,9 @@ fn run_with_planner(py: Python<'_>, words: Vec<String>, planner: Py<PyAny>) -> P
         class,
         error: error.clone(),
     };
-    let mut episode =
+    let episode =
         splatloop::episode::Episode::with_planner(&config, Box::new(bridge)).map_err(to_py)?;
-    let outcome = loop {
-        match episode.step() {
-            Ok(report) if report.ended.is_some() => break Ok(()),
-            Ok(_) => {}
-            Err(e) => break Err(e),
-        }
-    };
-    let metrics = episode.finish().map_err(to_py)?;
-    outcome.map_err(to_py)?;
+    let metrics = splatloop::episode::run_to_end(episode, &mut |_| {}).map_err(to_py)?;
     if let Some(e) = error.borrow_mut().take() {
         return Err(e);
     }

@@ -163,7 +163,12 @@ impl RunConfig {
 /// Runs an episode to its end and writes it; `on_progress` is called after each think.
 /// An error in a tick still leaves the episode written, and is then returned.
 pub fn run_episode(config: &RunConfig, on_progress: &mut dyn FnMut(Progress)) -> Result<Metrics> {
-    let mut episode = Episode::new(config)?;
+    run_to_end(Episode::new(config)?, on_progress)
+}
+
+/// Steps `episode` until it ends, then writes it; `on_progress` is called after each think.
+/// An error in a tick still leaves the episode written, and is then returned.
+pub fn run_to_end(mut episode: Episode, on_progress: &mut dyn FnMut(Progress)) -> Result<Metrics> {
     let outcome = loop {
         match episode.step() {
             Ok(report) => {

@@ -509,15 +509,13 @@ impl Episode {
 
     /// The map's coverage of the hidden test set, every [`COVERAGE_PERIOD`] seconds.
     fn measure_coverage(&mut self, time: f64) -> Result<()> {
-        if self.tests.surface.is_empty() || !self.clock.due(time, self.clock.next_coverage) {
+        if !self.clock.due(time, self.clock.next_coverage) {
             return Ok(());
         }
+        let Some(coverage) = self.coverage_now() else {
+            return Ok(());
+        };
         self.clock.next_coverage += COVERAGE_PERIOD;
-        let coverage = autonomy::metrics::coverage(
-            &self.tests.surface,
-            &self.mapper.map().gaussians.means,
-            crate::evaluate::COVERAGE_RADIUS,
-        );
         self.coverage = Some(coverage);
         self.coverage_over_time.push([time, coverage]);
         self.listeners.tell(&TickEvent::Coverage { time, coverage })

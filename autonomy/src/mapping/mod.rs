@@ -307,10 +307,9 @@ impl Mapper {
                     .then(|| window[(iteration / 3) % window.len()])
             })
             .collect();
-        report.loss = if self.engine.gpu().is_some() {
-            self.optimise_resident(frame, &camera, &views, &mut touched)?
-        } else {
-            self.optimise(frame, &camera, &views, &mut touched)?
+        report.loss = match self.optimise_resident(frame, &camera, &views, &mut touched)? {
+            Some(loss) => loss,
+            None => self.optimise(frame, &camera, &views, &mut touched)?,
         };
 
         let t2 = Instant::now();
@@ -367,16 +366,16 @@ impl Mapper {
     }
 
     /// The step's iterations on the GPU, resident: the map loaded once, stored back once; the
-    /// first and last iterations' losses.
+    /// first and last iterations' losses, or `None` (nothing done) with the CPU engine.
     fn optimise_resident(
         &mut self,
         frame: &Frame,
         camera: &PinholeCamera,
         views: &[Option<usize>],
         touched: &mut [bool],
-    ) -> Result<(f32, f32), MapError> {
+    ) -> Result<Option<(f32, f32)>, MapError> {
         let Some(gpu) = self.engine.gpu() else {
-            return Ok((0.0, 0.0));
+            return Ok(None);
         };
         let mut loss = (0.0, 0.0);
         // The whole iteration on the GPU: the map loaded once, stored back once.
@@ -414,7 +413,7 @@ impl Mapper {
         state
             .map
             .store(gpu, &mut self.map.gaussians, self.adam.state_mut(), touched)?;
-        Ok(loss)
+        Ok(Some(loss))
     }
 
     /// The step's iterations on the CPU engine: render, loss, backward, Adam; the first and

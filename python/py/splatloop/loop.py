@@ -10,6 +10,12 @@ from ._splatloop import record_drive, run_with_planner
 from .env import _words
 
 
+def _command_words(out: str, options: dict[str, Any]) -> list[str]:
+    """A command's flags with its output folder; ``overwrite=True`` is the bare switch."""
+    overwrite = bool(options.pop("overwrite", False))
+    return _words({**options, "out": os.fspath(out)}) + (["--overwrite"] if overwrite else [])
+
+
 def run(planner: Any, out: str, **options: Any) -> dict:
     """Runs one episode as ``splatloop run`` does (its options as keyword arguments, the same
     defaults), with ``planner`` deciding every think period instead of a built-in one, and
@@ -27,9 +33,7 @@ def run(planner: Any, out: str, **options: Any) -> dict:
     """
     if "planner" in options:
         raise ValueError("give the planner object as planner=...; built-in ones run with splatloop.Env or the CLI")
-    overwrite = bool(options.pop("overwrite", False))
-    words = _words({**options, "out": os.fspath(out)}) + (["--overwrite"] if overwrite else [])
-    return json.loads(run_with_planner(words, planner))
+    return json.loads(run_with_planner(_command_words(out, options), planner))
 
 
 def record(out: str, **options: Any) -> dict:
@@ -37,7 +41,5 @@ def record(out: str, **options: Any) -> dict:
     ``splatloop record`` does (its options as keyword arguments: ``world``, ``controls``,
     ``duration``, ``fps``, ``width``, ``height``, ...; ``overwrite=True`` replaces an earlier
     dataset). Returns the frame count, the collision steps and the final pose."""
-    overwrite = bool(options.pop("overwrite", False))
-    words = _words({**options, "out": os.fspath(out)}) + (["--overwrite"] if overwrite else [])
-    frames, collision_steps, final_pose = record_drive(words)
+    frames, collision_steps, final_pose = record_drive(_command_words(out, options))
     return {"frames": frames, "collision_steps": collision_steps, "final_pose": final_pose}
