@@ -35,7 +35,7 @@ pub fn run_config(
         think_period: 1.0,
         iterations: 10,
         latency: splatloop::episode::Latency::None,
-        planner,
+        planner: planner.into(),
         planner_options: Default::default(),
         sensor: SensorConfig::default(),
         test_views: 20,

@@ -425,6 +425,7 @@ fn closed_loop(planner: &mut dyn Planner, scene: &BoxScene, start: Pose2, plans:
         let frame = scene.render(&camera);
         planner.observe(
             &Observation {
+                rgb: &[],
                 depth: &frame.depth,
                 camera: &camera,
                 max_range: 5.0,
@@ -480,6 +481,7 @@ fn closed_loop(planner: &mut dyn Planner, scene: &BoxScene, start: Pose2, plans:
                 let f = scene.render(&camera);
                 planner.observe(
                     &Observation {
+                        rgb: &[],
                         depth: &f.depth,
                         camera: &camera,
                         max_range: 5.0,
@@ -858,7 +860,7 @@ fn every_planner_fails_with_a_recovery_when_it_starts_inside_an_obstacle() {
         theta: 0.0,
     };
     for mut planner in planners() {
-        let name = planner.name();
+        let name = planner.name().to_owned();
         // The frontier planners begin with a look around; the next plan is the real one.
         let mut decision = planner.plan(&map, start);
         if let Decision::Go(plan) = &decision {
@@ -892,7 +894,7 @@ fn every_planner_stays_within_the_drive_limits_and_repeats_exactly() {
                 closed_loop(planner.as_mut(), &scene, room_start(), 8)
             })
             .collect();
-        let name = planners()[k].name();
+        let name = planners()[k].name().to_owned();
         assert!(
             runs[0].commands.iter().all(|u| limits.admits(*u)),
             "{name}: {:?}",

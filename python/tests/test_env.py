@@ -180,8 +180,9 @@ class Arcs:
         self.frames = 0
         self.plans = []
 
-    def observe(self, frame):
+    def observe(self, frame, map):
         assert frame["depth"].dtype == np.float32 and frame["pose"].shape == (4, 4)
+        assert frame.rgb.shape == frame.depth.shape + (3,) and frame.rgb.dtype == np.uint8
         self.frames += 1
 
     def plan(self, observation, map):
@@ -192,7 +193,7 @@ class Arcs:
 def test_a_python_planner_drives_the_loop_through_the_same_controller(tmp_path):
     planner = Arcs()
     metrics = splatloop.run(planner, out=str(tmp_path / "arcs"), **{**SMALL, "budget": 6})
-    assert metrics["planner"] == "python" and metrics["ended"] == "budget"
+    assert metrics["planner"] == "python-Arcs" and metrics["ended"] == "budget"
     assert metrics["planner_settings"]["class"] == "Arcs"
     assert planner.frames == 30 and len(planner.plans) == 6
     # Every plan starts where the last one's arc ended (latency none: the pose now), and the

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 pub mod bench;
 mod eval;
 pub(crate) mod progress;
+pub mod python;
 mod record;
 mod render;
 pub(crate) mod run;
@@ -18,7 +19,9 @@ pub use bench::cli::{BenchArgs, BenchTarget};
 pub use eval::EvalArgs;
 pub use record::{record_config_from_words, RecordArgs};
 pub use render::RenderArgs;
-pub use run::{run_config_from_words, RunArgs, RunOptions, ViewArgs};
+pub use run::{
+    run_config_from_words, run_words_with_planner, PlannerFactory, RunArgs, RunOptions, ViewArgs,
+};
 pub use sweep::cli::{SweepArgs, SweepBackend};
 pub use world::WorldCommand;
 

@@ -4,9 +4,13 @@ use super::eval::print_evaluation;
 use super::progress::Progress;
 use super::RerunArgs;
 use crate::camera::SensorConfig;
-use crate::episode::{run_episode, Latency, PlannerKind, PlannerOptions, RunConfig, StopRequest};
+use crate::episode::{
+    run_to_end, Episode, Latency, PlannerChoice, PlannerContext, PlannerOptions, RunConfig,
+    StopRequest,
+};
 use crate::spawn::Spawn;
 use anyhow::{Context, Result};
+use autonomy::explore::Planner;
 use autonomy::splat::EngineChoice;
 use std::path::PathBuf;
 
@@ -20,9 +24,11 @@ pub struct RunArgs {
     /// exploration, AG-SLAM's baseline), agslam (AG-SLAM's Fisher-information planner) or
     /// survey (full turns at the points of the world's floor plan, which it knows, that see
     /// the most: the bound to compare with). All but the survey drive through the same
-    /// executor.
-    #[arg(long, value_enum, default_value_t = PlannerKind::RtGuide)]
-    planner: PlannerKind,
+    /// executor. python:MODULE:CLASS runs your own planner written in Python (a class with
+    /// plan(observation, map); MODULE a dotted module importable from here, or a .py file)
+    /// through the Python package, in the same loop: see the README's Python section.
+    #[arg(long, default_value = "rtguide", value_parser = parse_planner)]
+    planner: PlannerChoice,
     /// Simulated seconds to explore.
     #[arg(long, default_value_t = 60.0)]
     budget: f64,
@@ -79,6 +85,11 @@ pub struct RunOptions {
     /// Hidden test views for the evaluation, sampled in free space (0: skip).
     #[arg(long, default_value_t = 100)]
     pub test_views: usize,
+}
+
+/// `--planner`: a built-in name or python:MODULE:CLASS.
+fn parse_planner(text: &str) -> Result<PlannerChoice, String> {
+    text.parse()
 }
 
 /// `--spawn` is kept as typed (so a sweep can pass it on) but checked when parsed.
@@ -148,16 +159,43 @@ struct RunLine {
 }
 
 /// The episode `splatloop run WORDS` would run: the same flags, defaults and errors (the
-/// Python package builds its episodes with this).
+/// Python package builds its episodes with this). A `python:` planner is in the config; the
+/// episode needs its object ([`Episode::with_planner`]).
 pub fn run_config_from_words(words: Vec<String>) -> Result<RunConfig> {
     use clap::Parser;
     let line = RunLine::try_parse_from(words).map_err(|e| anyhow::anyhow!("{}", e.render()))?;
     line.args.into_config()
 }
 
-/// Runs the episode with a progress bar; `Some(code)` when a signal stopped it.
+/// Runs the episode with a progress bar; `Some(code)` when a signal stopped it. A Python
+/// planner's episode runs in the Python package's interpreter (`super::python`).
 pub fn run(args: RunArgs) -> Result<Option<u8>> {
-    let config = args.into_config()?;
+    if let PlannerChoice::Python(spec) = &args.planner {
+        return super::python::run_in_python(spec);
+    }
+    run_config(args.into_config()?, None)
+}
+
+/// Builds a caller's own planner for an episode, once the episode knows its camera.
+pub type PlannerFactory<'a> =
+    Box<dyn FnOnce(&PlannerContext) -> crate::error::Result<Box<dyn Planner>> + 'a>;
+
+/// `splatloop run WORDS` with `make` building the planner (the Python package's `splatloop
+/// run --planner python:...`): the same progress bar, signals, summary and exit code;
+/// `on_built` sees the episode before its first step.
+pub fn run_words_with_planner(
+    words: Vec<String>,
+    make: PlannerFactory<'_>,
+    on_built: &mut dyn FnMut(&Episode),
+) -> Result<Option<u8>> {
+    use clap::Parser;
+    let line = RunLine::try_parse_from(words).map_err(|e| anyhow::anyhow!("{}", e.render()))?;
+    run_config(line.args.into_config()?, Some((make, on_built)))
+}
+
+type CustomPlanner<'a, 'b> = (PlannerFactory<'a>, &'b mut dyn FnMut(&Episode));
+
+fn run_config(config: RunConfig, custom: Option<CustomPlanner<'_, '_>>) -> Result<Option<u8>> {
     // Ctrl-C or a cluster's SIGTERM stops the episode at its next tick; it is still written.
     for (signal, code) in [
         (signal_hook::consts::SIGINT, StopRequest::SIGINT),
@@ -172,7 +210,18 @@ pub fn run(args: RunArgs) -> Result<Option<u8>> {
         "exploring",
     );
     let budget = config.budget;
-    let metrics = run_episode(&config, &mut |p| {
+    let episode = match custom {
+        Some((make, on_built)) => {
+            let episode = Episode::with_planner(&config, make);
+            if let Ok(episode) = &episode {
+                on_built(episode);
+            }
+            episode
+        }
+        None => Episode::new(&config),
+    }
+    .with_context(|| format!("exploring {} failed", config.world.display()))?;
+    let metrics = run_to_end(episode, &mut |p| {
         bar.update((p.time * 1000.0) as u64, || {
             let coverage = p
                 .coverage

@@ -83,7 +83,7 @@ impl Episode {
                 || world.display().to_string(),
                 |n| n.to_string_lossy().into_owned()
             ),
-            self.planner_name,
+            &self.planner_name,
             simulated,
             self.config.budget,
             100.0 * evaluation.coverage,
@@ -122,7 +122,7 @@ impl Episode {
             camera: percentiles(times.camera.clone()),
             physics: percentiles(times.physics.clone()),
             engine: self.engine_name.clone(),
-            planner: self.planner_name,
+            planner: self.planner_name.clone(),
             planner_settings: self.planner_settings.clone(),
             ended,
             peak_memory_bytes: peak_memory_bytes(),

@@ -69,7 +69,7 @@ pub struct Metrics {
     /// The splat engine used.
     pub engine: String,
     /// The planner that drove the robot.
-    pub planner: &'static str,
+    pub planner: String,
     /// Its settings.
     pub planner_settings: serde_json::Value,
     /// Why the episode ended: "budget", "survey complete", or "stuck: ...".

@@ -30,7 +30,10 @@ mod metrics;
 mod tally;
 mod tick;
 
-pub use crate::planners::{AgslamOptions, PlannerKind, PlannerOptions, RtGuideOptions};
+pub use crate::planners::{
+    AgslamOptions, PlannerChoice, PlannerContext, PlannerKind, PlannerOptions, PythonPlannerSpec,
+    RtGuideOptions,
+};
 pub use listen::{TickEvent, TickListener};
 pub use metrics::{percentiles, Metrics, Percentiles};
 pub use tally::StageTimes;
@@ -67,8 +70,8 @@ pub struct RunConfig {
     pub iterations: usize,
     /// Latency model.
     pub latency: Latency,
-    /// The planner.
-    pub planner: PlannerKind,
+    /// The planner (a Python one needs its object: [`Episode::with_planner`]).
+    pub planner: PlannerChoice,
     /// The planners' own settings.
     pub planner_options: PlannerOptions,
     /// The camera.

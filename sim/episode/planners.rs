@@ -69,6 +69,103 @@ impl std::str::FromStr for PlannerKind {
     }
 }
 
+/// A planner as the command line names it: a built-in one, or `python:MODULE:CLASS`, a
+/// class written in Python that the Python package runs in the same loop (MODULE is a dotted
+/// module importable from the working folder, or a `.py` file).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum PlannerChoice {
+    /// One of splatloop's own.
+    Builtin(PlannerKind),
+    /// A Python class with a `plan(observation, map)` method.
+    Python(PythonPlannerSpec),
+}
+
+/// Where a Python planner's class is found.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PythonPlannerSpec {
+    /// A dotted module name, or a path to a `.py` file.
+    pub module: String,
+    /// The class in it; made with no arguments.
+    pub class: String,
+}
+
+impl PlannerChoice {
+    /// The built-in planner, or `None` for a Python one.
+    pub fn builtin(&self) -> Option<PlannerKind> {
+        match self {
+            PlannerChoice::Builtin(kind) => Some(*kind),
+            PlannerChoice::Python(_) => None,
+        }
+    }
+
+    /// A short name for folders and tables: the built-in's name, or `python-CLASS`.
+    pub fn label(&self) -> String {
+        match self {
+            PlannerChoice::Builtin(kind) => kind.name().to_owned(),
+            PlannerChoice::Python(spec) => format!("python-{}", spec.class),
+        }
+    }
+}
+
+impl From<PlannerKind> for PlannerChoice {
+    fn from(kind: PlannerKind) -> Self {
+        PlannerChoice::Builtin(kind)
+    }
+}
+
+impl std::fmt::Display for PlannerChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            PlannerChoice::Builtin(kind) => f.write_str(kind.name()),
+            PlannerChoice::Python(spec) => write!(f, "python:{}:{}", spec.module, spec.class),
+        }
+    }
+}
+
+impl std::str::FromStr for PlannerChoice {
+    type Err = String;
+
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        let Some(rest) = s.strip_prefix("python:") else {
+            return s.parse().map(PlannerChoice::Builtin);
+        };
+        // The class follows the last colon, so a module path may hold one (C:\...).
+        match rest.rsplit_once(':') {
+            Some((module, class))
+                if !module.is_empty()
+                    && !class.is_empty()
+                    && class.chars().all(|c| c.is_alphanumeric() || c == '_') =>
+            {
+                Ok(PlannerChoice::Python(PythonPlannerSpec {
+                    module: module.to_owned(),
+                    class: class.to_owned(),
+                }))
+            }
+            _ => Err(format!(
+                "{s:?}: a Python planner is python:MODULE:CLASS (e.g. python:my_planners:Frontier or python:examples/python/frontier.py:FrontierPlanner)"
+            )),
+        }
+    }
+}
+
+impl Serialize for PlannerChoice {
+    fn serialize<S: serde::Serializer>(
+        &self,
+        serializer: S,
+    ) -> std::result::Result<S::Ok, S::Error> {
+        serializer.collect_str(self)
+    }
+}
+
+impl<'de> Deserialize<'de> for PlannerChoice {
+    fn deserialize<D: serde::Deserializer<'de>>(
+        deserializer: D,
+    ) -> std::result::Result<Self, D::Error> {
+        let text = String::deserialize(deserializer)?;
+        text.parse().map_err(serde::de::Error::custom)
+    }
+}
+
 /// RT-GuIDE's settings: the paper's planner and its flagged extensions. One struct serves
 /// the command line (its flags), sweeps (sweep.json, by the flags' long names) and the library.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, clap::Args)]
@@ -214,6 +311,24 @@ pub fn build(
     world: &World,
     context: PlannerContext,
 ) -> Result<Box<dyn Planner>> {
+    match kind {
+        PlannerKind::Survey => Ok(Box::new(SurveyPlanner::new(
+            world,
+            &SurveyConfig::default(),
+            context.range,
+            context.period,
+        )?)),
+        explorer => build_explorer(explorer, options, context),
+    }
+}
+
+/// Builds a planner that needs nothing of the world but what its camera shows (all but the
+/// survey, which knows the floor plan), e.g. for a Python planner to wrap.
+pub fn build_explorer(
+    kind: PlannerKind,
+    options: &PlannerOptions,
+    context: PlannerContext,
+) -> Result<Box<dyn Planner>> {
     Ok(match kind {
         PlannerKind::RtGuide => {
             let mut config = PlannerConfig::default();
@@ -277,11 +392,11 @@ pub fn build(
                 CollisionEngine::Grid,
             ))
         }
-        PlannerKind::Survey => Box::new(SurveyPlanner::new(
-            world,
-            &SurveyConfig::default(),
-            context.range,
-            context.period,
-        )?),
+        PlannerKind::Survey => {
+            return Err(crate::error::SimError::InvalidArgument {
+                what: "planner",
+                detail: "the survey knows the world's floor plan, so it is built with the world (Episode::new, or Env(planner=\"survey\"))".to_owned(),
+            })
+        }
     })
 }

@@ -19,7 +19,7 @@ use crate::dataset::DatasetWriter;
 use crate::egl::EglContext;
 use crate::error::{Result, SimError};
 use crate::evaluate::TestSet;
-use crate::planners::{self, PlannerContext};
+use crate::planners::{self, PlannerChoice, PlannerContext, PlannerKind};
 use crate::rerun_log::RerunLog;
 use crate::robot::{Pose2, UnicycleCommand};
 use crate::spawn::place_robot;
@@ -30,6 +30,9 @@ use autonomy::map::GaussianMap;
 use autonomy::mapping::{Frame, Mapper, MapperConfig};
 use autonomy::splat::Rasteriser;
 use std::time::Instant;
+
+/// Builds a caller's planner once the episode knows its camera.
+type MakePlanner<'a> = Box<dyn FnOnce(&PlannerContext) -> Result<Box<dyn Planner>> + 'a>;
 
 /// Simulated seconds between coverage measurements during an episode.
 const COVERAGE_PERIOD: f64 = 10.0;
@@ -49,7 +52,12 @@ pub struct Episode {
     pub(super) planner: Box<dyn Planner>,
     pub(super) planner_settings: serde_json::Value,
     /// The planner's name for metrics.json and the picture's title.
-    pub(super) planner_name: &'static str,
+    pub(super) planner_name: String,
+    /// What the planner was built with (and advisors are).
+    context: PlannerContext,
+    /// Built-in planners that watch every frame beside the episode's own, so a caller can ask
+    /// what they would do ([`Episode::consult`]); they never drive.
+    advisors: Vec<(PlannerKind, Box<dyn Planner>)>,
     pub(super) engine_name: String,
     pub(super) tests: TestSet,
     pub(super) start_pose: Pose2,
@@ -128,14 +136,18 @@ impl Episode {
         Self::build(config, None)
     }
 
-    /// An episode driven by `planner` instead of the built-in one `config.planner` names
-    /// (a caller's own, e.g. one written in Python): the same tick, the same executor rules
-    /// for its decisions, its own name in metrics.json.
-    pub fn with_planner(config: &RunConfig, planner: Box<dyn Planner>) -> Result<Episode> {
-        Self::build(config, Some(planner))
+    /// An episode driven by the planner `make` builds, once the episode knows its camera,
+    /// instead of the built-in one `config.planner` names (a caller's own, e.g. one written in
+    /// Python): the same tick, the same executor rules for its decisions, its own name in
+    /// metrics.json.
+    pub fn with_planner(
+        config: &RunConfig,
+        make: impl FnOnce(&PlannerContext) -> Result<Box<dyn Planner>>,
+    ) -> Result<Episode> {
+        Self::build(config, Some(Box::new(make)))
     }
 
-    fn build(config: &RunConfig, custom: Option<Box<dyn Planner>>) -> Result<Episode> {
+    fn build(config: &RunConfig, make: Option<MakePlanner<'_>>) -> Result<Episode> {
         config.validate()?;
         config.rerun.check(&config.out, config.overwrite)?;
         let wall = Instant::now();
@@ -154,7 +166,7 @@ impl Episode {
         let title = format!(
             "run {} {} seed {}",
             config.world.display(),
-            custom.as_ref().map_or(config.planner.name(), |p| p.name()),
+            config.planner,
             config.seed
         );
         let rerun = RerunLog::open(&config.rerun, &title)?;
@@ -177,16 +189,22 @@ impl Episode {
             period: config.think_period,
             settled_omega,
         };
-        let (planner, planner_name) = match custom {
-            Some(planner) => {
-                let name = planner.name();
-                (planner, name)
+        let planner = match (make, &config.planner) {
+            (Some(make), _) => make(&context)?,
+            (None, PlannerChoice::Builtin(kind)) => {
+                planners::build(*kind, &config.planner_options, &world, context)?
             }
-            None => (
-                planners::build(config.planner, &config.planner_options, &world, context)?,
-                config.planner.name(),
-            ),
+            (None, PlannerChoice::Python(spec)) => {
+                return Err(SimError::InvalidArgument {
+                    what: "--planner",
+                    detail: format!(
+                        "python:{}:{} is a Python class: it runs through the Python package (splatloop.run, or `splatloop run`, which starts it)",
+                        spec.module, spec.class
+                    ),
+                })
+            }
         };
+        let planner_name = planner.name().to_owned();
         let planner_settings = planner.settings();
         // Fixed before the episode so coverage can be reported as it grows.
         let tests = TestSet::sample(
@@ -225,6 +243,8 @@ impl Episode {
             planner,
             planner_settings,
             planner_name,
+            context,
+            advisors: Vec::new(),
             engine_name,
             tests,
             start_pose,
@@ -332,6 +352,52 @@ impl Episode {
         })
     }
 
+    /// What the episode's planner was built with: a caller building its own planner, or
+    /// wrapping a built-in one, needs the same.
+    pub fn planner_context(&self) -> PlannerContext {
+        self.context
+    }
+
+    /// The splat engine the mapper renders with, shared (a caller's renders of the map use
+    /// it too).
+    pub fn engine(&self) -> std::sync::Arc<Rasteriser> {
+        self.mapper.shared_engine()
+    }
+
+    /// Adds `kind` as an advisor: a built-in planner with the episode's settings that sees
+    /// every frame from now on beside the episode's own, and answers [`Episode::consult`].
+    /// Nothing when it is one already. Its history starts now: add it before the first step
+    /// for the whole episode's.
+    pub fn advise(&mut self, kind: PlannerKind) -> Result<()> {
+        if self.advisors.iter().all(|(k, _)| *k != kind) {
+            let planner = planners::build(
+                kind,
+                &self.config.planner_options,
+                &self.world,
+                self.context,
+            )?;
+            self.advisors.push((kind, planner));
+        }
+        Ok(())
+    }
+
+    /// What the built-in planner `kind` would do from the robot's pose now, on the map as it
+    /// stands (an advisor, added first if it is not one yet); the robot is not moved.
+    pub fn consult(&mut self, kind: PlannerKind) -> Result<Decision> {
+        self.advise(kind)?;
+        let pose = self.world.pose();
+        let map = self.mapper.map();
+        let (_, advisor) = self
+            .advisors
+            .iter_mut()
+            .find(|(k, _)| *k == kind)
+            .ok_or_else(|| SimError::InvalidArgument {
+                what: "planner",
+                detail: format!("{} is not an advisor", kind.name()),
+            })?;
+        Ok(advisor.plan(map, pose))
+    }
+
     /// Why the episode ended, once it has.
     pub fn ended(&self) -> Option<&str> {
         self.ended.as_deref()
@@ -414,12 +480,16 @@ impl Episode {
         self.have_frame = true;
         self.clock.next_frame += self.clock.frame_period;
         let observation = Observation {
+            rgb: &self.frame.rgb,
             depth: &self.frame.depth,
             camera: &self.frame.camera,
             max_range: self.config.sensor.max_range,
             robot: self.world.pose(),
         };
         self.planner.observe(&observation, self.mapper.map());
+        for (_, advisor) in &mut self.advisors {
+            advisor.observe(&observation, self.mapper.map());
+        }
         self.listeners.tell(&TickEvent::Frame {
             frame: &self.frame,
             path: &self.tally.path,

@@ -18,6 +18,31 @@ use std::path::{Path, PathBuf};
 /// sensor's does.
 pub const MIN_SILHOUETTE: f32 = 0.5;
 
+/// A render as the sensor's images: 8-bit RGB, and the depth of the surface seen (the
+/// composited depth divided by the silhouette: it is weighted by opacity), 0 where the map is
+/// less than [`MIN_SILHOUETTE`] opaque or beyond `max_range`.
+pub fn sensor_images(images: &autonomy::splat::Images, max_range: f32) -> (Vec<u8>, Vec<f32>) {
+    let rgb = images
+        .colour
+        .iter()
+        .map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8)
+        .collect();
+    let depth = images
+        .depth
+        .iter()
+        .zip(&images.silhouette)
+        .map(|(d, s)| {
+            let z = if *s >= MIN_SILHOUETTE { d / s } else { 0.0 };
+            if z > 0.0 && z <= max_range {
+                z
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    (rgb, depth)
+}
+
 /// What `splatloop render` needs.
 #[derive(Debug, Clone, Serialize)]
 pub struct RenderConfig {
@@ -82,28 +107,7 @@ pub fn render_map(config: &RenderConfig, on_frame: &mut dyn FnMut(usize, usize))
         let rendered = engine
             .render(&map.gaussians, &camera)
             .map_err(|e| SimError::Mapping(e.to_string()))?;
-        let images = rendered.images();
-        let rgb = images
-            .colour
-            .iter()
-            .map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8)
-            .collect();
-        // The composited depth is weighted by opacity; divided by the silhouette it is the
-        // depth of the surface seen, which is what a depth image holds.
-        let max_range = camera_file.max_range as f32;
-        let depth = images
-            .depth
-            .iter()
-            .zip(&images.silhouette)
-            .map(|(d, s)| {
-                let z = if *s >= MIN_SILHOUETTE { d / s } else { 0.0 };
-                if z > 0.0 && z <= max_range {
-                    z
-                } else {
-                    0.0
-                }
-            })
-            .collect();
+        let (rgb, depth) = sensor_images(rendered.images(), camera_file.max_range as f32);
         writer.write_frame(&RgbdFrame {
             time: *time,
             rgb,

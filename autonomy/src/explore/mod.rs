@@ -19,6 +19,8 @@ use crate::map::GaussianMap;
 /// and the camera it was taken with.
 #[derive(Debug, Clone, Copy)]
 pub struct Observation<'a> {
+    /// Interleaved RGB, 3 bytes per pixel (empty where only depth was taken).
+    pub rgb: &'a [u8],
     /// Planar depth per pixel, metres; 0 where the sensor saw nothing.
     pub depth: &'a [f32],
     /// Intrinsics and the optical frame's pose in the world.
@@ -137,7 +139,7 @@ impl PlanFailure {
 /// says where the robot goes next.
 pub trait Planner {
     /// The name on the command line.
-    fn name(&self) -> &'static str;
+    fn name(&self) -> &str;
     /// The planner's settings, for metrics.json and episode.json.
     fn settings(&self) -> serde_json::Value;
     /// Takes in one camera frame (planners that keep their own grid update it here).

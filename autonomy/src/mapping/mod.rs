@@ -213,7 +213,7 @@ pub struct Mapper {
     config: MapperConfig,
     map: GaussianMap,
     keyframes: Vec<Keyframe>,
-    engine: Rasteriser,
+    engine: std::sync::Arc<Rasteriser>,
     /// Adam's moments persist across steps (grown on densify, filtered on prune): a Gaussian
     /// that has settled takes small steps, a new one full steps, which is what makes the
     /// displacement a measure of uncertainty.
@@ -242,7 +242,7 @@ impl Mapper {
             config,
             map: GaussianMap::default(),
             keyframes: Vec::new(),
-            engine,
+            engine: std::sync::Arc::new(engine),
             adam: Adam::new(config_rates),
             scene_radius: 0.0,
             steps: 0,
@@ -258,6 +258,12 @@ impl Mapper {
     /// The engine in use.
     pub fn engine(&self) -> &Rasteriser {
         &self.engine
+    }
+
+    /// The engine, shared: a caller renders the map with the episode's engine (one GPU
+    /// device, not two) while the mapper keeps using it.
+    pub fn shared_engine(&self) -> std::sync::Arc<Rasteriser> {
+        self.engine.clone()
     }
 
     /// Keyframes kept so far.

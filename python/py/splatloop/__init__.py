@@ -10,11 +10,26 @@ for ``-``, the same defaults); ``Dataset`` reads an episode or ``record`` folder
 frame. ``gymnasium.make("splatloop/Explore-v0", ...)`` gives the same environment.
 """
 
-from ._splatloop import Dataset, Episode, __version__
+from . import planners
+from ._splatloop import Dataset, Episode, Frame, Map, Plan, PlanFailure, PlannerContext, __version__
 from .env import COLLISION_PENALTY, Env
 from .loop import record, run
 
-__all__ = ["COLLISION_PENALTY", "Dataset", "Env", "Episode", "record", "run", "__version__"]
+__all__ = [
+    "COLLISION_PENALTY",
+    "Dataset",
+    "Env",
+    "Episode",
+    "Frame",
+    "Map",
+    "Plan",
+    "PlanFailure",
+    "PlannerContext",
+    "planners",
+    "record",
+    "run",
+    "__version__",
+]
 
 try:
     import gymnasium as _gymnasium

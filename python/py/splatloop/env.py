@@ -19,12 +19,12 @@ import shutil
 import tempfile
 import threading
 import warnings
-from typing import Any, Optional
+from typing import Any, Optional, Sequence
 
 import gymnasium as gym
 import numpy as np
 
-from ._splatloop import Episode
+from ._splatloop import Episode, Map
 
 #: Reward lost per think period spent wholly in contact (a period half in contact loses half).
 COLLISION_PENALTY = 0.01
@@ -52,9 +52,16 @@ class Env(gym.Env):
 
     metadata = {"render_modes": ["rgb_array"]}
 
-    def __init__(self, out: Optional[str] = None, render_mode: Optional[str] = None, **options: Any):
+    def __init__(
+        self,
+        out: Optional[str] = None,
+        render_mode: Optional[str] = None,
+        advisors: Sequence[str] = (),
+        **options: Any,
+    ):
         if "overwrite" in options:
             raise ValueError("overwrite is the environment's: each reset starts a new episode folder")
+        self._advisors = [str(name) for name in advisors]
         self._options = dict(options)
         self._seed = int(self._options.pop("seed", 1))
         self._out = os.fspath(out) if out is not None else None
@@ -93,7 +100,11 @@ class Env(gym.Env):
     def _open(self, seed: int) -> Episode:
         self._resets += 1
         words = _words({**self._options, "seed": seed, "out": self._folder()})
-        return Episode(words + ["--overwrite"])
+        episode = Episode(words + ["--overwrite"])
+        for name in self._advisors:
+            episode.advise(name)
+        self._stepped = False
+        return episode
 
     def _check_thread(self) -> None:
         if threading.get_ident() != self._thread:
@@ -123,7 +134,8 @@ class Env(gym.Env):
         frame = self._episode.observe()
         self._coverage = self._episode.coverage() or 0.0
         self._last_obs = self._obs(frame)
-        return self._last_obs, {"time": frame["time"], "gaussians": 0, "coverage": self._coverage}
+        info = {"time": frame["time"], "robot": self._episode.pose(), "gaussians": 0, "coverage": self._coverage}
+        return self._last_obs, info
 
     def _action(self, action) -> tuple[float, float]:
         a = np.asarray(action, dtype=np.float64)
@@ -155,6 +167,7 @@ class Env(gym.Env):
             v, w = self._action(action)
             self._episode.apply(v, w)
         report = self._episode.step()
+        self._stepped = True
         ended = report["ended"]
         frame = self._episode.observe() if ended is None else None
         if frame is not None:
@@ -170,6 +183,7 @@ class Env(gym.Env):
             raise RuntimeError(f"the episode ended: {ended}")
         info = {
             "time": report["time"],
+            "robot": report["pose"],
             "collision_steps": report["collision_steps"],
             "gaussians": report["gaussians"],
             "coverage": self._coverage,
@@ -178,14 +192,39 @@ class Env(gym.Env):
         return self._last_obs, float(reward), terminated, truncated, info
 
     @property
-    def map(self) -> dict:
-        """The current episode's map as arrays: ``means`` (N, 3), ``colours`` (N, 3),
-        ``opacities`` (N,), ``radii`` (N,) metres, ``uncertainty`` (N,); ``len(env.map["means"])``
-        is the Gaussian count."""
+    def map(self) -> Map:
+        """The current episode's map (a snapshot): ``means`` (N, 3), ``colours`` (N, 3),
+        ``opacities`` (N,), ``radii`` (N,) metres, ``uncertainty`` (N,) as arrays, ``len(map)``
+        Gaussians, ``render(world_from_camera, K, width, height) -> (rgb, depth)`` with the
+        episode's engine, ``save_ply(path)``."""
         self._check_thread()
         if self._episode is None:
             raise RuntimeError("no episode: call reset() first")
         return self._episode.map()
+
+    def plan(self, name: str):
+        """What the built-in planner ``name`` (rtguide, fbe, agslam, survey) would do from the
+        robot's pose now: a ``Plan`` (``commands``, ``period``, ``states`` (x, y, theta) the
+        unicycle model predicts, ``target``, ``score``), a ``PlanFailure`` or a string (it has
+        nothing left to do). Nothing moves: ``env.step(plan.commands[0])`` drives its first
+        command. Planners keep a history of the frames they saw: name them in
+        ``Env(advisors=[...])`` to have the whole episode's; one first asked later starts its
+        history then (said once as a warning)."""
+        self._check_thread()
+        if self._episode is None:
+            raise RuntimeError("no episode: call reset() first")
+        if name not in ("rtguide", "fbe", "agslam", "survey"):
+            raise ValueError(f"unknown planner {name!r}; env.plan asks rtguide, fbe, agslam or survey")
+        if name not in self._advisors:
+            if self._stepped:
+                warnings.warn(
+                    f"env.plan({name!r}): {name} sees frames from now on, not the episode's earlier "
+                    f"ones; give advisors=[{name!r}] to Env for its whole history",
+                    stacklevel=2,
+                )
+            self._advisors.append(name)
+            self._episode.advise(name)
+        return self._episode.consult(name)
 
     def save_ply(self, path: str) -> None:
         """Writes the current map as a 3DGS PLY (with RT-GuIDE's ``uncertainty``)."""

@@ -23,13 +23,17 @@ def run(planner: Any, out: str, **options: Any) -> dict:
     episode). Returns metrics.json's contents.
 
     ``planner.plan(observation, map)`` gets ``observation["start"]`` = (x, y, theta), the pose
-    the plan begins from, and ``map`` (``means``, ``colours``, ``opacities``, ``radii``,
-    ``uncertainty`` arrays); it returns ``{"commands": [(v, w), ...], "period": 1.0}`` to drive
-    (checked against the drive's limits), a string to end the episode with that reason, or
-    ``None`` for no plan (the host backs off or looks around, as for ours). ``planner.observe(frame)``,
-    if defined, sees every frame's ``depth``, ``pose`` and ``K``. With ``latency="wall"`` the
-    planner's own time is charged to simulated time, as ours is. An exception it raises ends
-    the episode, which is still written, and is raised again here.
+    the plan begins from, and ``map``, a ``splatloop.Map`` (``means``, ``colours``,
+    ``opacities``, ``radii``, ``uncertainty`` arrays, ``render``); it returns
+    ``{"commands": [(v, w), ...], "period": 1.0}`` to drive (checked against the drive's
+    limits), a ``Plan`` or ``PlanFailure`` of a built-in planner (``splatloop.planners.make``)
+    to pass its decision on unchanged, a string to end the episode with that reason, or
+    ``None`` for no plan (the host turns in place to look around, as for ours).
+    ``planner.start(context)``, if defined, is called once before the first frame with the
+    camera and the episode's seed (a ``PlannerContext``); ``planner.observe(frame, map)``, if
+    defined, sees every frame (a ``Frame``: ``rgb``, ``depth``, ``pose``, ``K``, ``robot``).
+    With ``latency="wall"`` the planner's own time is charged to simulated time, as ours is.
+    An exception it raises ends the episode, which is still written, and is raised again here.
     """
     if "planner" in options:
         raise ValueError("give the planner object as planner=...; built-in ones run with splatloop.Env or the CLI")

@@ -601,7 +601,7 @@ pub struct PlannersBenchRow {
     /// Map size.
     pub gaussians: usize,
     /// The planner.
-    pub planner: &'static str,
+    pub planner: String,
     /// Median seconds of a plan (of 3, each after a small map change).
     pub plan: f64,
     /// Candidates the last plan compared.
@@ -677,6 +677,7 @@ pub fn bench_planners(counts: &[usize], agslam_candidates: usize) -> Vec<Planner
                 }
                 planner.observe(
                     &Observation {
+                        rgb: &[],
                         depth: &depth,
                         camera: &camera,
                         max_range: mount.range,
@@ -707,7 +708,7 @@ pub fn bench_planners(counts: &[usize], agslam_candidates: usize) -> Vec<Planner
             };
             rows.push(PlannersBenchRow {
                 gaussians: n,
-                planner: planner.name(),
+                planner: planner.name().to_owned(),
                 plan: times[times.len() / 2],
                 candidates,
                 outcome,

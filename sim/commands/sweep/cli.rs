@@ -3,7 +3,7 @@
 
 use crate::commands::progress::Progress;
 use crate::commands::run::RunOptions;
-use crate::episode::PlannerKind;
+use crate::episode::PlannerChoice;
 use anyhow::{Context, Result};
 use clap::{Subcommand, ValueEnum};
 use std::path::PathBuf;
@@ -17,9 +17,10 @@ pub struct SweepArgs {
     /// Worlds: files and quoted shell patterns, comma-separated ("worlds/suite/*.xml").
     #[arg(long, value_delimiter = ',', required = true)]
     worlds: Vec<String>,
-    /// Planners, comma-separated (rtguide, fbe, agslam, survey).
-    #[arg(long, value_enum, value_delimiter = ',', required = true)]
-    planners: Vec<PlannerKind>,
+    /// Planners, comma-separated (rtguide, fbe, agslam, survey, or python:MODULE:CLASS, your
+    /// own written in Python; its folders and rows are named python-CLASS).
+    #[arg(long, value_delimiter = ',', required = true, value_parser = parse_planner)]
+    planners: Vec<PlannerChoice>,
     /// Seeds: a list (1,2,5), an inclusive range (1..4), or both (1..3,7).
     #[arg(long, required = true)]
     seeds: Option<String>,
@@ -146,7 +147,11 @@ pub fn sweep(args: SweepArgs) -> Result<Option<u8>> {
     };
     let spec = SweepSpec {
         worlds: sweep::resolve_worlds(&args.worlds)?,
-        planners: args.planners.iter().map(|p| p.name().to_owned()).collect(),
+        planners: args
+            .planners
+            .iter()
+            .map(python_module_absolute)
+            .collect::<Result<_>>()?,
         seeds: sweep::parse_seeds(args.seeds.as_deref().unwrap_or_default())?,
         budget,
         run_options,
@@ -158,7 +163,9 @@ pub fn sweep(args: SweepArgs) -> Result<Option<u8>> {
         },
         SweepBackend::Ray => Backend::Ray {
             address: args.ray_address,
-            python: args.ray_python.unwrap_or_else(|| default_python(&binary)),
+            python: args
+                .ray_python
+                .unwrap_or_else(|| crate::commands::python::default_python(&binary)),
             jobs: args.jobs,
             cpus_per_episode: args.cpus_per_episode as f64,
         },
@@ -214,16 +221,22 @@ pub fn sweep(args: SweepArgs) -> Result<Option<u8>> {
     Ok(None)
 }
 
-/// The Python that Ray is installed for: the checkout's .venv (scripts/setup.sh makes it),
-/// found from the working folder or from the binary's place in target/, else python3.
-fn default_python(binary: &std::path::Path) -> PathBuf {
-    let venv = |root: &std::path::Path| root.join(".venv/bin/python");
-    let candidates = std::iter::once(PathBuf::from("."))
-        .chain(binary.ancestors().skip(1).take(4).map(PathBuf::from));
-    for root in candidates {
-        if venv(&root).exists() {
-            return venv(&root);
-        }
+/// `--planners`: built-in names or python:MODULE:CLASS.
+fn parse_planner(text: &str) -> std::result::Result<PlannerChoice, String> {
+    text.parse()
+}
+
+/// A planner as sweep.json keeps it: a Python planner's `.py` file made absolute, so the
+/// episodes find it from wherever they run (a Ray worker, a Slurm node).
+fn python_module_absolute(planner: &PlannerChoice) -> Result<String> {
+    let PlannerChoice::Python(spec) = planner else {
+        return Ok(planner.to_string());
+    };
+    if !spec.module.ends_with(".py") {
+        return Ok(planner.to_string());
     }
-    PathBuf::from("python3")
+    let file = std::path::Path::new(&spec.module);
+    let absolute = std::fs::canonicalize(file)
+        .with_context(|| format!("cannot find the Python planner's file {}", file.display()))?;
+    Ok(format!("python:{}:{}", absolute.display(), spec.class))
 }

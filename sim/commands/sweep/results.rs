@@ -79,7 +79,7 @@ pub fn gather(sweep: &Sweep) -> (Vec<String>, Vec<Row>) {
         cells.insert("index".into(), e.index.to_string());
         cells.insert("world".into(), e.world_name.clone());
         cells.insert("kind".into(), e.kind.clone());
-        cells.insert("planner".into(), e.planner.clone());
+        cells.insert("planner".into(), e.label.clone());
         cells.insert("seed".into(), e.seed.to_string());
         cells.insert("status".into(), status.into());
         if let EpisodeState::Failed { error } = &state {
@@ -118,7 +118,7 @@ pub fn gather(sweep: &Sweep) -> (Vec<String>, Vec<Row>) {
             index: e.index,
             world: e.world_name.clone(),
             kind: e.kind.clone(),
-            planner: e.planner.clone(),
+            planner: e.label.clone(),
             seed: e.seed,
             status,
             cells,

@@ -3,7 +3,7 @@
 //! where each one lives on disk, whether it is done, and the `splatloop run` that makes it.
 
 use crate::error::{Result, SimError};
-use crate::planners::PlannerKind;
+use crate::planners::{PlannerChoice, PlannerKind};
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 use std::path::{Path, PathBuf};
@@ -56,8 +56,10 @@ pub struct Episode {
     /// apartment, office or warehouse from the manifest.json beside a generated world;
     /// "custom" for any other world.
     pub kind: String,
-    /// Planner name.
+    /// The planner as `--planner` takes it.
     pub planner: String,
+    /// The planner's name in folders and tables (python-CLASS for a Python one).
+    pub label: String,
     /// Seed.
     pub seed: u64,
 }
@@ -136,8 +138,15 @@ impl Sweep {
                 "it needs at least one world, one planner and one seed".into(),
             ));
         }
+        let mut labels: Vec<(String, &String)> = Vec::new();
         for planner in &spec.planners {
-            planner.parse::<PlannerKind>().map_err(invalid)?;
+            let label = planner.parse::<PlannerChoice>().map_err(invalid)?.label();
+            if let Some((_, other)) = labels.iter().find(|(l, _)| *l == label) {
+                return Err(invalid(format!(
+                    "{other} and {planner} would share the folder {label}; rename one class"
+                )));
+            }
+            labels.push((label, planner));
         }
         let mut worlds: Vec<(String, PathBuf, String)> = Vec::new();
         for world in &spec.worlds {
@@ -162,6 +171,9 @@ impl Sweep {
                 world_name: name.clone(),
                 kind: kind.clone(),
                 planner: planner.to_string(),
+                label: planner
+                    .parse::<PlannerChoice>()
+                    .map_or_else(|_| planner.to_string(), |p| p.label()),
                 seed,
             });
         };
@@ -192,7 +204,7 @@ impl Sweep {
     pub fn folder(&self, e: &Episode) -> PathBuf {
         self.out
             .join(&e.world_name)
-            .join(&e.planner)
+            .join(&e.label)
             .join(e.seed.to_string())
     }
 
@@ -209,7 +221,7 @@ impl Sweep {
     fn sibling(&self, e: &Episode, extension: &str) -> PathBuf {
         self.out
             .join(&e.world_name)
-            .join(&e.planner)
+            .join(&e.label)
             .join(format!("{}.{extension}", e.seed))
     }
 
