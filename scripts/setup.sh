@@ -1,8 +1,23 @@
 #!/usr/bin/env bash
 # Takes a fresh Debian 12 machine (root, package registries only) to a working release build of
-# splatloop. Idempotent: packages already present are skipped, cargo rebuilds only what changed.
+# splatloop and its Python package. Idempotent: packages already present are skipped, cargo
+# rebuilds only what changed.
+#
+#   bash scripts/setup.sh               the binary and `import splatloop` (about 10 minutes on 2 cores)
+#   bash scripts/setup.sh --with-rerun  also rerun recordings (`run --rerun FILE.rrd`): the rerun
+#                                       SDK is ~400 crates, about 20 more minutes on 2 cores
 set -euo pipefail
 cd "$(dirname "$0")/.."
+
+FEATURES=()
+for arg in "$@"; do
+  case "$arg" in
+    --with-rerun) FEATURES=(--features rerun) ;;
+    -h|--help) sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "error: unknown option $arg (try --help)" >&2; exit 2 ;;
+  esac
+done
+if [ "${SPLATLOOP_RERUN:-0}" = 1 ]; then FEATURES=(--features rerun); fi
 
 say() { printf '\n==> %s\n' "$*"; }
 
@@ -79,11 +94,17 @@ if [ "${SPLATLOOP_SKIP_RELEASE_BUILD:-0}" = 1 ]; then
   exit 0
 fi
 
-# --features rerun: `run --rerun FILE.rrd` and `record --rerun` write rerun recordings.
-say "building splatloop (release, with rerun recordings)"
-cargo build --release --features rerun --locked 2>/dev/null || cargo build --release --features rerun
+# --with-rerun: `run --rerun FILE.rrd` and `record --rerun` write rerun recordings.
+if ((${#FEATURES[@]})); then
+  say "building splatloop (release, with rerun recordings)"
+else
+  say "building splatloop (release; rerun recordings need --with-rerun)"
+fi
+cargo build --release --locked "${FEATURES[@]}" 2>/dev/null || cargo build --release "${FEATURES[@]}"
 
-# The Python package (`import splatloop`) into .venv, from the same release build's artefacts.
+# The Python package (`import splatloop`) into .venv. Its crate depends on the same library
+# with the same features, so cargo reuses the release build above and compiles only the
+# bindings (pyo3, numpy, python/src).
 say "installing the Python package splatloop into .venv"
 PATH="$PWD/.venv/bin:$PATH" .venv/bin/pip install --quiet --disable-pip-version-check --no-build-isolation ./python
 

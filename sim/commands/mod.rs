@@ -64,7 +64,7 @@ pub enum Command {
 }
 
 /// Where a rerun recording of the episode goes (needs a build with `--features rerun`,
-/// which scripts/setup.sh makes).
+/// which `scripts/setup.sh --with-rerun` makes).
 #[derive(clap::Args)]
 pub struct RerunArgs {
     /// Write a rerun recording (.rrd: camera images and poses, path, plans, map, scalars);

@@ -28,8 +28,8 @@ pub const DEPTH_PER_METRE: f32 = 5000.0;
 fn not_built() -> SimError {
     SimError::InvalidArgument {
         what: "--rerun / --rerun-connect",
-        detail: "this splatloop was built without rerun; build it with `cargo build --release \
-                 --features rerun` (scripts/setup.sh does)"
+        detail: "this splatloop was built without rerun recordings; build it with \
+                 `bash scripts/setup.sh --with-rerun` (or `cargo build --release --features rerun`)"
             .into(),
     }
 }
