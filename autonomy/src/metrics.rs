@@ -60,45 +60,98 @@ pub fn ssim(a: &[f32], b: &[f32], width: usize, height: usize) -> f64 {
 /// Fraction of `surface` points with a Gaussian mean within `radius` (DESIGN.md's coverage,
 /// radius 5 cm): the share of [`covered`] that is true.
 pub fn coverage(surface: &[[f32; 3]], means: &[[f32; 3]], radius: f32) -> f64 {
-    if surface.is_empty() {
-        return 0.0;
-    }
-    let hits = covered(surface, means, radius)
-        .iter()
-        .filter(|c| **c)
-        .count();
-    hits as f64 / surface.len() as f64
+    SurfaceIndex::new(surface, radius).coverage(means)
 }
 
 /// For each `surface` point, whether a Gaussian mean lies within `radius`: where a map is
-/// missing, not only how much. Means are filed in a hash of cubes of side `radius`, so each
-/// point looks at 27 cells: linear in points plus means. Non-finite means cover nothing.
+/// missing, not only how much. Non-finite means cover nothing.
 pub fn covered(surface: &[[f32; 3]], means: &[[f32; 3]], radius: f32) -> Vec<bool> {
-    let cell = |p: &[f32; 3]| p.map(|v| (v / radius).floor() as i32);
-    let mut grid: HashMap<[i32; 3], Vec<u32>> = HashMap::new();
-    for (i, m) in means.iter().enumerate() {
-        if m.iter().all(|v| v.is_finite()) {
-            grid.entry(cell(m)).or_default().push(i as u32);
+    SurfaceIndex::new(surface, radius).covered(means)
+}
+
+/// Surface points filed for coverage queries of many maps (an episode measures the same
+/// hidden points after every step). Space is cut into cubes of side `radius`; each cube lists
+/// the points in it and its 26 neighbours, which are the only ones a mean inside it can be
+/// within `radius` of. A query then looks up each mean's one cube and checks a handful of
+/// points: linear in the means, with no allocation per mean.
+#[derive(Debug, Clone)]
+pub struct SurfaceIndex {
+    surface: Vec<[f32; 3]>,
+    radius: f32,
+    /// Cube -> (start, length) in `points`.
+    cubes: HashMap<[i32; 3], (u32, u32)>,
+    /// Surface point indices, cube by cube.
+    points: Vec<u32>,
+}
+
+impl SurfaceIndex {
+    /// Files `surface` for queries at `radius`.
+    pub fn new(surface: &[[f32; 3]], radius: f32) -> Self {
+        let mut near: HashMap<[i32; 3], Vec<u32>> = HashMap::new();
+        for (i, p) in surface.iter().enumerate() {
+            let c = cube(p, radius);
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        near.entry([c[0] + dx, c[1] + dy, c[2] + dz])
+                            .or_default()
+                            .push(i as u32);
+                    }
+                }
+            }
+        }
+        let mut cubes = HashMap::with_capacity(near.len());
+        let mut points = Vec::with_capacity(27 * surface.len());
+        for (key, list) in near {
+            cubes.insert(key, (points.len() as u32, list.len() as u32));
+            points.extend(list);
+        }
+        SurfaceIndex {
+            surface: surface.to_vec(),
+            radius,
+            cubes,
+            points,
         }
     }
-    let r2 = radius * radius;
-    surface
-        .iter()
-        .map(|p| {
-            let c = cell(p);
-            (-1..=1).any(|dx| {
-                (-1..=1).any(|dy| {
-                    (-1..=1).any(|dz| {
-                        grid.get(&[c[0] + dx, c[1] + dy, c[2] + dz])
-                            .is_some_and(|ids| {
-                                ids.iter().any(|&i| {
-                                    let m = &means[i as usize];
-                                    (0..3).map(|k| (m[k] - p[k]).powi(2)).sum::<f32>() <= r2
-                                })
-                            })
-                    })
-                })
-            })
-        })
-        .collect()
+
+    /// The surface points.
+    pub fn surface(&self) -> &[[f32; 3]] {
+        &self.surface
+    }
+
+    /// For each surface point, whether one of `means` lies within the radius.
+    pub fn covered(&self, means: &[[f32; 3]]) -> Vec<bool> {
+        let r2 = self.radius * self.radius;
+        let mut hit = vec![false; self.surface.len()];
+        for m in means {
+            if !m.iter().all(|v| v.is_finite()) {
+                continue;
+            }
+            let Some(&(start, len)) = self.cubes.get(&cube(m, self.radius)) else {
+                continue;
+            };
+            for &i in &self.points[start as usize..(start + len) as usize] {
+                let i = i as usize;
+                if !hit[i] {
+                    let p = &self.surface[i];
+                    hit[i] = (0..3).map(|k| (m[k] - p[k]).powi(2)).sum::<f32>() <= r2;
+                }
+            }
+        }
+        hit
+    }
+
+    /// Fraction of the surface points with one of `means` within the radius (0 without points).
+    pub fn coverage(&self, means: &[[f32; 3]]) -> f64 {
+        if self.surface.is_empty() {
+            return 0.0;
+        }
+        let hits = self.covered(means).iter().filter(|c| **c).count();
+        hits as f64 / self.surface.len() as f64
+    }
+}
+
+/// The cube of side `radius` holding `p`.
+fn cube(p: &[f32; 3], radius: f32) -> [i32; 3] {
+    p.map(|v| (v / radius).floor() as i32)
 }

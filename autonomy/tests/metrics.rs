@@ -1,7 +1,7 @@
 //! Map quality metrics: coverage (and which points it covers) against a brute-force search,
 //! SSIM against its closed form.
 
-use autonomy::metrics::{coverage, covered, ssim};
+use autonomy::metrics::{coverage, covered, ssim, SurfaceIndex};
 use rand::{Rng, SeedableRng};
 
 #[test]
@@ -38,6 +38,21 @@ fn coverage_equals_a_brute_force_search() {
         "coverage {fast} does not exercise both sides"
     );
     assert_eq!(coverage(&surface, &[], 0.05), 0.0);
+    // One index answers many maps the same as a fresh search each time (an episode queries
+    // its hidden points after every step); a non-finite mean covers nothing.
+    let index = SurfaceIndex::new(&surface, 0.05);
+    for keep in [3000, 1000, 10] {
+        let mut some = means[..keep].to_vec();
+        some.push([f32::NAN, 0.0, 0.0]);
+        let brute: Vec<bool> = surface
+            .iter()
+            .map(|p| {
+                some.iter()
+                    .any(|m| (0..3).map(|k| (m[k] - p[k]).powi(2)).sum::<f32>() <= 0.05f32 * 0.05)
+            })
+            .collect();
+        assert_eq!(index.covered(&some), brute, "{keep} means");
+    }
 }
 
 #[test]

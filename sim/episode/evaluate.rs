@@ -11,7 +11,7 @@ use crate::mujoco::Data;
 use crate::robot::Pose2;
 use crate::world::World;
 use autonomy::map::GaussianMap;
-use autonomy::metrics::{coverage, covered, psnr, ssim};
+use autonomy::metrics::{psnr, ssim};
 use autonomy::splat::Rasteriser;
 use nalgebra::{Point3, Vector3};
 use rand::{Rng, SeedableRng};
@@ -97,6 +97,8 @@ pub struct TestSet {
     pub poses: Vec<Pose2>,
     /// Ground-truth surface points within the sensor's range of the test cameras.
     pub surface: Vec<[f32; 3]>,
+    /// The same points filed for coverage queries (measured after every step by a caller).
+    pub index: autonomy::metrics::SurfaceIndex,
 }
 
 impl TestSet {
@@ -133,14 +135,19 @@ impl TestSet {
                 }
             }
         }
-        Ok(TestSet { poses, surface })
+        let index = autonomy::metrics::SurfaceIndex::new(&surface, COVERAGE_RADIUS);
+        Ok(TestSet {
+            poses,
+            surface,
+            index,
+        })
     }
 }
 
 /// For each of the test set's surface points, whether the map has a Gaussian mean within
 /// the coverage radius: where the map is missing, for comparing two maps point by point.
 pub fn covered_surface(tests: &TestSet, map: &GaussianMap) -> Vec<bool> {
-    covered(&tests.surface, &map.gaussians.means, COVERAGE_RADIUS)
+    tests.index.covered(&map.gaussians.means)
 }
 
 /// A fresh state of the world's model, for rendering and ray casting away from the episode.
@@ -194,7 +201,7 @@ pub fn evaluate(
         ssim: ssim_sum / n,
         depth_mae: abs_sum / p,
         depth_rmse: (sq_sum / p).sqrt(),
-        coverage: coverage(&tests.surface, &map.gaussians.means, COVERAGE_RADIUS),
+        coverage: tests.index.coverage(&map.gaussians.means),
         surface_points: tests.surface.len(),
     })
 }

@@ -344,11 +344,9 @@ impl Episode {
     /// test views): a caller's reward, measured on demand.
     pub fn coverage_now(&self) -> Option<f64> {
         (!self.tests.surface.is_empty()).then(|| {
-            autonomy::metrics::coverage(
-                &self.tests.surface,
-                &self.mapper.map().gaussians.means,
-                crate::evaluate::COVERAGE_RADIUS,
-            )
+            self.tests
+                .index
+                .coverage(&self.mapper.map().gaussians.means)
         })
     }
 

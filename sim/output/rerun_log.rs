@@ -28,9 +28,10 @@ pub const DEPTH_PER_METRE: f32 = 5000.0;
 fn not_built() -> SimError {
     SimError::InvalidArgument {
         what: "--rerun / --rerun-connect",
-        detail: "this splatloop was built without rerun recordings; build it with \
+        detail:
+            "this splatloop was built without rerun recordings; build it with \
                  `bash scripts/setup.sh --with-rerun` (or `cargo build --release --features rerun`)"
-            .into(),
+                .into(),
     }
 }
 
