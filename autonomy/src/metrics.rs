@@ -1,8 +1,6 @@
 //! Map quality metrics (RT-GuIDE V-C): PSNR and SSIM on RGB in [0, 1], depth errors, and
 //! coverage of ground-truth surface points.
 
-use std::collections::HashMap;
-
 /// Peak signal-to-noise ratio in dB of two RGB images in [0, 1] (values are clamped first).
 pub fn psnr(a: &[f32], b: &[f32]) -> f64 {
     let mse = a
@@ -60,95 +58,91 @@ pub fn ssim(a: &[f32], b: &[f32], width: usize, height: usize) -> f64 {
 /// Fraction of `surface` points with a Gaussian mean within `radius` (DESIGN.md's coverage,
 /// radius 5 cm): the share of [`covered`] that is true.
 pub fn coverage(surface: &[[f32; 3]], means: &[[f32; 3]], radius: f32) -> f64 {
-    SurfaceIndex::new(surface, radius).coverage(means)
+    if surface.is_empty() {
+        return 0.0;
+    }
+    let hits = covered(surface, means, radius)
+        .iter()
+        .filter(|c| **c)
+        .count();
+    hits as f64 / surface.len() as f64
 }
+
+/// The 27 cube offsets around a point, its own cube first: most covered points find their
+/// mean there and stop.
+const NEIGHBOURS: [[i32; 3]; 27] = {
+    let mut out = [[0; 3]; 27];
+    let mut k = 1;
+    let mut d = 0;
+    while d < 27 {
+        let offset = [d / 9 - 1, d / 3 % 3 - 1, d % 3 - 1];
+        if !(offset[0] == 0 && offset[1] == 0 && offset[2] == 0) {
+            out[k] = offset;
+            k += 1;
+        }
+        d += 1;
+    }
+    out
+};
 
 /// For each `surface` point, whether a Gaussian mean lies within `radius`: where a map is
-/// missing, not only how much. Non-finite means cover nothing.
+/// missing, not only how much. Means are sorted into cubes of side `radius` (a hash from cube
+/// to its run of means, no allocation per cube), so each point looks at 27 cubes at most, its
+/// own first; the points are checked in parallel. Linear in points plus means (an episode
+/// measures its hidden points after every step). Non-finite means cover nothing.
 pub fn covered(surface: &[[f32; 3]], means: &[[f32; 3]], radius: f32) -> Vec<bool> {
-    SurfaceIndex::new(surface, radius).covered(means)
-}
-
-/// Surface points filed for coverage queries of many maps (an episode measures the same
-/// hidden points after every step). Space is cut into cubes of side `radius`; each cube lists
-/// the points in it and its 26 neighbours, which are the only ones a mean inside it can be
-/// within `radius` of. A query then looks up each mean's one cube and checks a handful of
-/// points: linear in the means, with no allocation per mean.
-#[derive(Debug, Clone)]
-pub struct SurfaceIndex {
-    surface: Vec<[f32; 3]>,
-    radius: f32,
-    /// Cube -> (start, length) in `points`.
-    cubes: HashMap<[i32; 3], (u32, u32)>,
-    /// Surface point indices, cube by cube.
-    points: Vec<u32>,
-}
-
-impl SurfaceIndex {
-    /// Files `surface` for queries at `radius`.
-    pub fn new(surface: &[[f32; 3]], radius: f32) -> Self {
-        let mut near: HashMap<[i32; 3], Vec<u32>> = HashMap::new();
-        for (i, p) in surface.iter().enumerate() {
-            let c = cube(p, radius);
-            for dx in -1..=1 {
-                for dy in -1..=1 {
-                    for dz in -1..=1 {
-                        near.entry([c[0] + dx, c[1] + dy, c[2] + dz])
-                            .or_default()
-                            .push(i as u32);
-                    }
-                }
-            }
-        }
-        let mut cubes = HashMap::with_capacity(near.len());
-        let mut points = Vec::with_capacity(27 * surface.len());
-        for (key, list) in near {
-            cubes.insert(key, (points.len() as u32, list.len() as u32));
-            points.extend(list);
-        }
-        SurfaceIndex {
-            surface: surface.to_vec(),
-            radius,
-            cubes,
-            points,
-        }
-    }
-
-    /// The surface points.
-    pub fn surface(&self) -> &[[f32; 3]] {
-        &self.surface
-    }
-
-    /// For each surface point, whether one of `means` lies within the radius.
-    pub fn covered(&self, means: &[[f32; 3]]) -> Vec<bool> {
-        let r2 = self.radius * self.radius;
-        let mut hit = vec![false; self.surface.len()];
-        for m in means {
+    use rayon::prelude::*;
+    // Each finite mean's cube, numbered in order of first appearance; then the means bucketed
+    // by cube (a counting sort).
+    let mut cubes: rustc_hash::FxHashMap<[i32; 3], u32> = Default::default();
+    let mut counts: Vec<u32> = Vec::new();
+    let bucket_of: Vec<u32> = means
+        .iter()
+        .map(|m| {
             if !m.iter().all(|v| v.is_finite()) {
-                continue;
+                return u32::MAX;
             }
-            let Some(&(start, len)) = self.cubes.get(&cube(m, self.radius)) else {
-                continue;
-            };
-            for &i in &self.points[start as usize..(start + len) as usize] {
-                let i = i as usize;
-                if !hit[i] {
-                    let p = &self.surface[i];
-                    hit[i] = (0..3).map(|k| (m[k] - p[k]).powi(2)).sum::<f32>() <= r2;
-                }
-            }
-        }
-        hit
+            let b = *cubes.entry(cube(m, radius)).or_insert_with(|| {
+                counts.push(0);
+                (counts.len() - 1) as u32
+            });
+            counts[b as usize] += 1;
+            b
+        })
+        .collect();
+    let mut starts = Vec::with_capacity(counts.len() + 1);
+    let mut total = 0u32;
+    starts.push(0);
+    for c in &counts {
+        total += c;
+        starts.push(total);
     }
-
-    /// Fraction of the surface points with one of `means` within the radius (0 without points).
-    pub fn coverage(&self, means: &[[f32; 3]]) -> f64 {
-        if self.surface.is_empty() {
-            return 0.0;
+    let mut fill = starts.clone();
+    let mut order = vec![0u32; total as usize];
+    for (j, &b) in bucket_of.iter().enumerate() {
+        if b != u32::MAX {
+            order[fill[b as usize] as usize] = j as u32;
+            fill[b as usize] += 1;
         }
-        let hits = self.covered(means).iter().filter(|c| **c).count();
-        hits as f64 / self.surface.len() as f64
     }
+    let r2 = radius * radius;
+    surface
+        .par_iter()
+        .map(|p| {
+            let c = cube(p, radius);
+            NEIGHBOURS.iter().any(|d| {
+                cubes
+                    .get(&[c[0] + d[0], c[1] + d[1], c[2] + d[2]])
+                    .is_some_and(|&b| {
+                        let run = starts[b as usize] as usize..starts[b as usize + 1] as usize;
+                        order[run].iter().any(|&j| {
+                            let m = &means[j as usize];
+                            (0..3).map(|k| (m[k] - p[k]).powi(2)).sum::<f32>() <= r2
+                        })
+                    })
+            })
+        })
+        .collect()
 }
 
 /// The cube of side `radius` holding `p`.

@@ -1,7 +1,7 @@
 //! Map quality metrics: coverage (and which points it covers) against a brute-force search,
 //! SSIM against its closed form.
 
-use autonomy::metrics::{coverage, covered, ssim, SurfaceIndex};
+use autonomy::metrics::{coverage, covered, ssim};
 use rand::{Rng, SeedableRng};
 
 #[test]
@@ -38,11 +38,21 @@ fn coverage_equals_a_brute_force_search() {
         "coverage {fast} does not exercise both sides"
     );
     assert_eq!(coverage(&surface, &[], 0.05), 0.0);
-    // One index answers many maps the same as a fresh search each time (an episode queries
-    // its hidden points after every step); a non-finite mean covers nothing.
-    let index = SurfaceIndex::new(&surface, 0.05);
-    for keep in [3000, 1000, 10] {
-        let mut some = means[..keep].to_vec();
+    // Maps that changed (means dropped, moved, renumbered) and a non-finite mean, which
+    // covers nothing.
+    let mut moved = means.clone();
+    moved.reverse();
+    for m in moved.iter_mut().step_by(3) {
+        m[0] += 0.03;
+    }
+    for some in [
+        means.clone(),
+        means[..1000].to_vec(),
+        moved,
+        means[2990..].to_vec(),
+        means.clone(),
+    ] {
+        let mut some = some;
         some.push([f32::NAN, 0.0, 0.0]);
         let brute: Vec<bool> = surface
             .iter()
@@ -51,7 +61,12 @@ fn coverage_equals_a_brute_force_search() {
                     .any(|m| (0..3).map(|k| (m[k] - p[k]).powi(2)).sum::<f32>() <= 0.05f32 * 0.05)
             })
             .collect();
-        assert_eq!(index.covered(&some), brute, "{keep} means");
+        assert_eq!(
+            covered(&surface, &some, 0.05),
+            brute,
+            "{} means",
+            some.len()
+        );
     }
 }
 

@@ -97,8 +97,6 @@ pub struct TestSet {
     pub poses: Vec<Pose2>,
     /// Ground-truth surface points within the sensor's range of the test cameras.
     pub surface: Vec<[f32; 3]>,
-    /// The same points filed for coverage queries (measured after every step by a caller).
-    pub index: autonomy::metrics::SurfaceIndex,
 }
 
 impl TestSet {
@@ -135,19 +133,14 @@ impl TestSet {
                 }
             }
         }
-        let index = autonomy::metrics::SurfaceIndex::new(&surface, COVERAGE_RADIUS);
-        Ok(TestSet {
-            poses,
-            surface,
-            index,
-        })
+        Ok(TestSet { poses, surface })
     }
 }
 
 /// For each of the test set's surface points, whether the map has a Gaussian mean within
 /// the coverage radius: where the map is missing, for comparing two maps point by point.
 pub fn covered_surface(tests: &TestSet, map: &GaussianMap) -> Vec<bool> {
-    tests.index.covered(&map.gaussians.means)
+    autonomy::metrics::covered(&tests.surface, &map.gaussians.means, COVERAGE_RADIUS)
 }
 
 /// A fresh state of the world's model, for rendering and ray casting away from the episode.
@@ -201,7 +194,11 @@ pub fn evaluate(
         ssim: ssim_sum / n,
         depth_mae: abs_sum / p,
         depth_rmse: (sq_sum / p).sqrt(),
-        coverage: tests.index.coverage(&map.gaussians.means),
+        coverage: autonomy::metrics::coverage(
+            &tests.surface,
+            &map.gaussians.means,
+            COVERAGE_RADIUS,
+        ),
         surface_points: tests.surface.len(),
     })
 }

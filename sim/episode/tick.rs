@@ -344,9 +344,11 @@ impl Episode {
     /// test views): a caller's reward, measured on demand.
     pub fn coverage_now(&self) -> Option<f64> {
         (!self.tests.surface.is_empty()).then(|| {
-            self.tests
-                .index
-                .coverage(&self.mapper.map().gaussians.means)
+            autonomy::metrics::coverage(
+                &self.tests.surface,
+                &self.mapper.map().gaussians.means,
+                crate::evaluate::COVERAGE_RADIUS,
+            )
         })
     }
 
