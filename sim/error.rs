@@ -33,6 +33,16 @@ pub enum SimError {
         /// What the user should do.
         hint: &'static str,
     },
+    /// The episode was complete but its folder could not take it (files a user added while it
+    /// ran, or a folder that appeared without `--overwrite`): it was written beside.
+    #[error("the episode is in {path}, not in its --out folder")]
+    WrittenBeside {
+        /// Where the episode is.
+        path: PathBuf,
+        /// Why the --out folder was left as it was.
+        #[source]
+        reason: Box<SimError>,
+    },
     /// A setting outside the range the host supports.
     #[error("invalid {what}: {detail}")]
     InvalidArgument {

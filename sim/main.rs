@@ -20,8 +20,18 @@ fn main() -> std::process::ExitCode {
         Ok(cli) => cli,
         Err(e) => e.exit(),
     };
-    let filter = tracing_subscriber::EnvFilter::try_new(&cli.log)
-        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    // A filter that does not parse is an error, not a silent `info`.
+    let filter = match cli.log.parse::<tracing_subscriber::filter::Targets>() {
+        Ok(_) => tracing_subscriber::EnvFilter::try_new(&cli.log).ok(),
+        Err(_) => None,
+    };
+    let Some(filter) = filter else {
+        eprintln!(
+            "error: invalid --log {:?}: give error, warn, info, debug, trace, or a directive such as splatloop=debug,wgpu=warn",
+            cli.log
+        );
+        return std::process::ExitCode::from(2);
+    };
     tracing_subscriber::fmt()
         .with_env_filter(filter)
         .with_writer(std::io::stderr)

@@ -227,8 +227,9 @@ fn survey_map_scores_better_than_half_of_it_and_test_poses_are_free() {
     let tests = TestSet::sample(&world, &camera, 15, 99, sensor.max_range).expect("test set");
     assert_eq!(tests.poses.len(), 15);
     let engine = Rasteriser::select(EngineChoice::Cpu);
-    let full = evaluate(&world, &mut camera, &engine, &map, &tests).expect("evaluate");
-    let halved = evaluate(&world, &mut camera, &engine, &half, &tests).expect("evaluate");
+    let full = evaluate(&world, &mut camera, &engine, &map, &tests, &|| false).expect("evaluate");
+    let halved =
+        evaluate(&world, &mut camera, &engine, &half, &tests, &|| false).expect("evaluate");
     eprintln!("full {full:?}\nhalf {halved:?}");
     assert!(full.psnr > halved.psnr + 0.5, "{full:?} vs {halved:?}");
     assert!(full.ssim > halved.ssim, "{full:?} vs {halved:?}");

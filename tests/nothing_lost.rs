@@ -205,7 +205,7 @@ fn a_run_that_fails_while_writing_leaves_the_earlier_episode_intact() {
         .expect("one frame");
     writer.fail_writes_after(1);
     writer
-        .finish(&serde_json::json!({"command": "test"}))
+        .finish(&serde_json::json!({"command": "test"}), false)
         .expect_err("fails");
     assert_eq!(snapshot(&out), before);
 }
@@ -552,11 +552,13 @@ fn an_os_error_is_reported_once() {
     let dir = tempfile::tempdir().expect("tempdir");
     let map = dir.path().join("map.ply");
     tiny_map(&map);
+    let poses = dir.path().join("poses.txt");
+    std::fs::write(&poses, "0 0 0 0.35 0 0 0 1\n").expect("poses");
     let out = binary()
         .args(["render", "--engine", "cpu", "--map"])
         .arg(&map)
         .arg("--poses")
-        .arg(dir.path().join("missing.txt"))
+        .arg(&poses)
         .arg("--camera")
         .arg(dir.path().join("missing.json"))
         .arg("--out")

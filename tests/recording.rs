@@ -251,3 +251,36 @@ fn a_recorded_drive_logs_every_frame_it_writes() {
     // An open-loop drive has no map and no plans.
     assert_eq!(rows("/world/map/colour") + rows("/world/plan/chosen"), 0);
 }
+
+/// D3 of "nothing lost, round two": a viewer address nothing answers at is refused before the
+/// episode runs (it used to run whole, exit 1 and strand the episode in `.NAME.partial`).
+#[cfg(feature = "rerun")]
+#[test]
+fn a_viewer_that_is_not_there_is_refused_before_the_episode() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    // A port nothing listens on: bound, then let go.
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .expect("a free port")
+        .port();
+    let config = room_episode(
+        dir.path(),
+        3.0,
+        RerunTarget {
+            file: None,
+            connect: Some(format!("127.0.0.1:{port}")),
+            map_every: 1,
+        },
+    );
+    let error = run_episode(&config, &mut |_| {}).expect_err("no viewer there");
+    assert!(
+        error.to_string().contains("no rerun viewer answers"),
+        "{error}"
+    );
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .expect("read")
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name())
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}

@@ -20,7 +20,8 @@ pub fn room() -> World {
 }
 
 /// A closed-loop episode in `world` (repository-relative) for the tests: seed 3, latency
-/// none, the CPU engine, 20 hidden views, 10 mapping iterations.
+/// none, the CPU engine, 20 hidden views, 10 mapping iterations, ending when the planner is
+/// done.
 pub fn run_config(
     world: &str,
     planner: splatloop::episode::PlannerKind,
@@ -39,6 +40,9 @@ pub fn run_config(
         planner_options: Default::default(),
         sensor: SensorConfig::default(),
         test_views: 20,
+        // Most tests assert how a planner ended; the default (to the budget) has its own.
+        stop_when_done: true,
+        done_factor: None,
         ply_sh_degree: 0,
         spawn: splatloop::spawn::Spawn::Site,
         engine: autonomy::splat::EngineChoice::Cpu,

@@ -478,3 +478,57 @@ fn seeds_and_worlds_are_read_as_a_shell_user_means_them() {
     assert!(resolve_worlds(&["worlds/none_*.xml".into()]).is_err());
     assert!(resolve_worlds(&[repo_path("worlds/missing.xml").display().to_string()]).is_err());
 }
+
+/// A fair comparison's protocol: with a factor of 1 or more the survey runs on to the factor
+/// times its route's time, the others get that time, and every planner of a world and seed
+/// has the same simulated seconds and mapping steps; summary.md says so and compares the
+/// planners at equal times.
+#[test]
+fn a_survey_factor_sweep_gives_every_planner_the_same_time_and_mapping_steps() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("sweep");
+    let args = [
+        "--planners",
+        "survey,fbe",
+        "--seeds",
+        "1",
+        "--budget-survey-factor",
+        "1.2",
+        "--survey-budget",
+        "200",
+        "--jobs",
+        "1",
+    ];
+    run_sweep(&out, &args);
+    let table = rows(&out);
+    assert_eq!(table.len(), 2);
+    let find = |p: &str| table.iter().find(|r| r["planner"] == p).expect("row");
+    let (survey, fbe) = (find("survey"), find("fbe"));
+    let done_at = number(survey, "done_at");
+    assert!(
+        (number(survey, "simulated_seconds") - 1.2 * done_at).abs() < 0.01,
+        "{survey:?}"
+    );
+    for column in ["simulated_seconds", "mapping_steps"] {
+        assert!(
+            (number(survey, column) - number(fbe, column)).abs() < 1e-6,
+            "{column}: survey {} fbe {}",
+            survey[column],
+            fbe[column]
+        );
+    }
+    assert!(
+        fbe["ended"].starts_with("budget (planner done at t = "),
+        "{fbe:?}"
+    );
+    let summary = std::fs::read_to_string(out.join("summary.md")).expect("summary.md");
+    assert!(
+        summary.contains("Protocol: every episode runs to its budget"),
+        "{summary}"
+    );
+    assert!(
+        summary.contains("Mapping steps (mean [min, max]): survey "),
+        "{summary}"
+    );
+    assert!(summary.contains("## At equal times"), "{summary}");
+}

@@ -29,6 +29,18 @@ impl Default for LearningRates {
     }
 }
 
+impl LearningRates {
+    /// Every rate times `factor`.
+    pub fn scaled(self, factor: f32) -> Self {
+        LearningRates {
+            means: self.means * factor,
+            colours: self.colours * factor,
+            logit_opacities: self.logit_opacities * factor,
+            log_radii: self.log_radii * factor,
+        }
+    }
+}
+
 /// Adam's state, borrowed: for an engine that runs the optimiser where the map is (the GPU's
 /// resident map loads it before a mapping step).
 #[derive(Debug, Clone, Copy)]

@@ -74,6 +74,7 @@ impl Episode {
             Some(Think::Overruled) => "overruled",
             Some(Think::Holding) => "holding",
             Some(Think::Driven(_)) => "driven",
+            Some(Think::Idle) => "idle",
         };
         dict.set_item("think", think)?;
         dict.set_item("ended", report.ended)?;

@@ -36,6 +36,9 @@ pub struct EvalArgs {
 }
 
 pub fn eval(args: EvalArgs) -> Result<()> {
+    if let (Some(out), Some(surface)) = (&args.out, &args.surface_out) {
+        crate::dataset::refuse_same_outputs(&[("--out", out), ("--surface-out", surface)])?;
+    }
     for out in [&args.out, &args.surface_out].into_iter().flatten() {
         crate::dataset::refuse_overwrite(out, args.overwrite, &[&args.map, &args.world])?;
     }

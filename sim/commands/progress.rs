@@ -61,10 +61,19 @@ impl Progress {
     }
 
     pub fn finish(&self) {
+        self.end("done (100%, ")
+    }
+
+    /// Clears the bar and says the work stopped before its end.
+    pub fn finish_interrupted(&self) {
+        self.end("interrupted (")
+    }
+
+    fn end(&self, how: &str) {
         self.bar.finish_and_clear();
         if self.plain {
             eprintln!(
-                "{}: done (100%, {:.0} s wall)",
+                "{}: {how}{:.0} s wall)",
                 self.what,
                 self.started.elapsed().as_secs_f64()
             );

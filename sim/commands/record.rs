@@ -106,7 +106,8 @@ pub fn record(args: RecordArgs) -> Result<()> {
     let summary = record_drive(&config, &mut |t| {
         bar.update((t * 1000.0) as u64, || format!("{t:.1}/{total:.0} sim s"));
     })
-    .with_context(|| format!("recording {} failed", config.world.display()))?;
+    .with_context(|| format!("recording {} failed", config.world.display()))
+    .map_err(|error| super::run::with_kept_work(error, &config.out))?;
     bar.finish();
     println!(
         "wrote {} frames to {} (robot ended at x = {:.2} m, y = {:.2} m, theta = {:.2} rad; {} collision steps)",

@@ -29,9 +29,15 @@ pub struct RunArgs {
     /// through the Python package, in the same loop: see the README's Python section.
     #[arg(long, default_value = "rtguide", value_parser = parse_planner)]
     planner: PlannerChoice,
-    /// Simulated seconds to explore.
+    /// Simulated seconds to explore. The episode runs to it even when the planner is done
+    /// earlier (the robot holds still, the mapper goes on), unless --stop-when-done.
     #[arg(long, default_value_t = 60.0)]
     budget: f64,
+    /// With the planner done at t, end at F x t instead (within the budget): what a sweep
+    /// gives its survey in --budget-survey-factor mode, so the survey maps as long as the
+    /// planners compared with it.
+    #[arg(long, value_name = "F")]
+    done_factor: Option<f64>,
     /// Seed (sensor noise, the hidden test set and a random spawn).
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -85,6 +91,12 @@ pub struct RunOptions {
     /// Hidden test views for the evaluation, sampled in free space (0: skip).
     #[arg(long, default_value_t = 100)]
     pub test_views: usize,
+    /// End the episode when the planner says it is done (the old protocol); by default it
+    /// runs to its budget, so every planner's map gets the same mapping time.
+    #[arg(long, action = clap::ArgAction::Set, num_args = 0..=1, default_value_t = false,
+          default_missing_value = "true", value_name = "BOOL")]
+    #[serde(default)]
+    pub stop_when_done: bool,
 }
 
 /// `--planner`: a built-in name or python:MODULE:CLASS.
@@ -138,6 +150,8 @@ impl RunArgs {
                 ..SensorConfig::default()
             },
             test_views: self.options.test_views,
+            stop_when_done: self.options.stop_when_done,
+            done_factor: self.done_factor,
             ply_sh_degree: self.options.ply_sh_degree,
             spawn: self.options.spawn.parse().map_err(anyhow::Error::msg)?,
             engine: self.options.view.engine,
@@ -165,6 +179,19 @@ pub fn run_config_from_words(words: Vec<String>) -> Result<RunConfig> {
     use clap::Parser;
     let line = RunLine::try_parse_from(words).map_err(|e| anyhow::anyhow!("{}", e.render()))?;
     line.args.into_config()
+}
+
+/// A failed run (a full disk) keeps what it wrote in its staging folder: the error says
+/// where, and that the next run into the folder clears it.
+pub(crate) fn with_kept_work(error: anyhow::Error, out: &std::path::Path) -> anyhow::Error {
+    match crate::dataset::staging_folder(out) {
+        Some(staging) if staging.exists() => error.context(format!(
+            "what was written is in {}; free space or fix the cause, then rerun (the next run into {} clears it)",
+            staging.display(),
+            out.display()
+        )),
+        _ => error,
+    }
 }
 
 /// Runs the episode with a progress bar; `Some(code)` when a signal stopped it. A Python
@@ -232,8 +259,13 @@ fn run_config(config: RunConfig, custom: Option<CustomPlanner<'_, '_>>) -> Resul
             )
         });
     })
-    .with_context(|| format!("exploring {} failed", config.world.display()))?;
-    bar.finish();
+    .with_context(|| format!("exploring {} failed", config.world.display()))
+    .map_err(|error| with_kept_work(error, &config.out))?;
+    if config.stop.requested().is_some() {
+        bar.finish_interrupted();
+    } else {
+        bar.finish();
+    }
     println!(
         "explored {:.0} sim s in {:.1} wall s (real-time factor {:.2}) with {}: {} Gaussians, {:.1} m driven, {} collision steps, {} recoveries; wrote {}",
         metrics.simulated_seconds,
@@ -244,7 +276,7 @@ fn run_config(config: RunConfig, custom: Option<CustomPlanner<'_, '_>>) -> Resul
         metrics.path_length,
         metrics.collision_steps,
         metrics.recovery_events,
-        config.out.display()
+        metrics.folder.display()
     );
     print_evaluation(&metrics.evaluation);
     if metrics.ended != "budget" {

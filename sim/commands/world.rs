@@ -101,6 +101,9 @@ pub enum WorldCommand {
         /// unreachable free space red, the spawn blue).
         #[arg(long)]
         plot: Option<PathBuf>,
+        /// Replace an existing --plot file (never the world itself).
+        #[arg(long)]
+        overwrite: bool,
     },
 }
 
@@ -130,12 +133,13 @@ pub fn world(command: WorldCommand) -> Result<()> {
             let world = generate(&config, &mut say_rejected)
                 .with_context(|| format!("generating {} failed", config.out.display()))?;
             println!(
-                "wrote {} ({} seed {}, candidate {}): {:.1} m2, {} rooms, {} doors, {} geoms, {:.1}% of the free space reachable",
+                "wrote {} ({} seed {}, candidate {}): {:.1} m2 of floor inside the walls ({:.1} m2 with the outer walls, as `world check` measures), {} rooms, {} doors, {} geoms, {:.1}% of the free space reachable",
                 world.file.display(),
                 kind.name(),
                 seed,
                 world.sub_seed,
                 world.area,
+                world.report.floor_area,
                 world.rooms,
                 world.doors,
                 world.report.geoms,
@@ -196,7 +200,13 @@ pub fn world(command: WorldCommand) -> Result<()> {
             spawn,
             json,
             plot,
-        } => check(&world, spawn, json, plot.as_deref()),
+            overwrite,
+        } => {
+            if let Some(png) = &plot {
+                crate::dataset::refuse_overwrite(png, overwrite, &[world.as_path()])?;
+            }
+            check(&world, spawn, json, plot.as_deref())
+        }
     }
 }
 
@@ -293,7 +303,7 @@ fn print_world_report(path: &std::path::Path, r: &crate::world_check::WorldRepor
         );
     }
     println!(
-        "floor area (inside the outer walls): {:.1} m2",
+        "floor area (inside the outer boundary, the outer walls included): {:.1} m2",
         r.floor_area
     );
     println!(

@@ -10,6 +10,7 @@ use crate::error::{Result, SimError};
 use crate::mujoco::Data;
 use crate::robot::Pose2;
 use crate::world::World;
+use autonomy::camera::PinholeCamera;
 use autonomy::map::GaussianMap;
 use autonomy::metrics::{psnr, ssim};
 use autonomy::splat::Rasteriser;
@@ -32,7 +33,8 @@ const COVERAGE_PIXEL_STRIDE: u32 = 8;
 pub struct Evaluation {
     /// Test views.
     pub views: usize,
-    /// Mean PSNR, dB.
+    /// Mean PSNR, dB. NaN (null in metrics.json) when there was no test view, as for the
+    /// other scores: no measurement is not a score of 0.
     pub psnr: f64,
     /// Mean SSIM (11x11 Gaussian window), in [-1, 1].
     pub ssim: f64,
@@ -137,6 +139,54 @@ impl TestSet {
     }
 }
 
+/// Test views the map's PSNR is followed on while an episode runs (a subsample of the test
+/// set, spread over it): one splat render each per measurement.
+pub const PSNR_OVER_TIME_VIEWS: usize = 10;
+
+/// Ground-truth colour images of a few test views, rendered once before the episode, so the
+/// map's PSNR over time costs only the map's renders.
+pub struct TruthViews {
+    views: Vec<(PinholeCamera, Vec<f32>)>,
+}
+
+impl TruthViews {
+    /// Renders `count` of the test set's views, spread over it, with `camera` (a camera of
+    /// its own, so the episode's sensor noise stream is not touched).
+    pub fn capture(
+        world: &World,
+        camera: &mut RgbdCamera,
+        tests: &TestSet,
+        count: usize,
+    ) -> Result<Self> {
+        let mut data = scratch(world)?;
+        let mut frame = camera.blank_frame();
+        let stride = tests.poses.len().div_ceil(count.max(1)).max(1);
+        let mut views = Vec::new();
+        for pose in tests.poses.iter().step_by(stride).take(count) {
+            world.robot().place(&mut data, *pose);
+            camera.capture_into(&data, &mut frame)?;
+            let truth = frame.rgb.iter().map(|c| f32::from(*c) / 255.0).collect();
+            views.push((frame.camera, truth));
+        }
+        Ok(TruthViews { views })
+    }
+
+    /// The map's mean PSNR on these views; `None` without views.
+    pub fn psnr(&self, engine: &Rasteriser, map: &GaussianMap) -> Result<Option<f64>> {
+        if self.views.is_empty() {
+            return Ok(None);
+        }
+        let mut sum = 0.0;
+        for (camera, truth) in &self.views {
+            let rendered = engine
+                .render(&map.gaussians, camera)
+                .map_err(|e| SimError::Mapping(e.to_string()))?;
+            sum += psnr(&rendered.images().colour, truth);
+        }
+        Ok(Some(sum / self.views.len() as f64))
+    }
+}
+
 /// For each of the test set's surface points, whether the map has a Gaussian mean within
 /// the coverage radius: where the map is missing, for comparing two maps point by point.
 pub fn covered_surface(tests: &TestSet, map: &GaussianMap) -> Vec<bool> {
@@ -152,12 +202,15 @@ fn scratch(world: &World) -> Result<Data> {
 
 /// Renders the ground truth at each test pose (on a scratch state: the world is untouched)
 /// and the map from the same camera, and scores the map.
+/// Stops between views when `stopped` says so (a signal): then nothing is scored, as with no
+/// test view.
 pub fn evaluate(
     world: &World,
     camera: &mut RgbdCamera,
     engine: &Rasteriser,
     map: &GaussianMap,
     tests: &TestSet,
+    stopped: &dyn Fn() -> bool,
 ) -> Result<Evaluation> {
     let mut data = scratch(world)?;
     let mut frame = camera.blank_frame();
@@ -168,6 +221,9 @@ pub fn evaluate(
     let (mut psnr_sum, mut ssim_sum) = (0.0, 0.0);
     let (mut abs_sum, mut sq_sum, mut pixels) = (0.0, 0.0, 0usize);
     for pose in &tests.poses {
+        if stopped() {
+            return Ok(Evaluation::none());
+        }
         world.robot().place(&mut data, *pose);
         camera.capture_into(&data, &mut frame)?;
         let rendered = engine
@@ -186,19 +242,36 @@ pub fn evaluate(
             }
         }
     }
-    let n = tests.poses.len().max(1) as f64;
-    let p = pixels.max(1) as f64;
+    // Means of nothing are NaN, which metrics.json writes as null.
+    let n = tests.poses.len() as f64;
+    let p = pixels as f64;
+    let coverage = if tests.surface.is_empty() || stopped() {
+        f64::NAN
+    } else {
+        autonomy::metrics::coverage(&tests.surface, &map.gaussians.means, COVERAGE_RADIUS)
+    };
     Ok(Evaluation {
         views: tests.poses.len(),
         psnr: psnr_sum / n,
         ssim: ssim_sum / n,
         depth_mae: abs_sum / p,
         depth_rmse: (sq_sum / p).sqrt(),
-        coverage: autonomy::metrics::coverage(
-            &tests.surface,
-            &map.gaussians.means,
-            COVERAGE_RADIUS,
-        ),
+        coverage,
         surface_points: tests.surface.len(),
     })
+}
+
+impl Evaluation {
+    /// No score at all: no view rendered, no surface point checked.
+    pub fn none() -> Self {
+        Evaluation {
+            views: 0,
+            psnr: f64::NAN,
+            ssim: f64::NAN,
+            depth_mae: f64::NAN,
+            depth_rmse: f64::NAN,
+            coverage: f64::NAN,
+            surface_points: 0,
+        }
+    }
 }

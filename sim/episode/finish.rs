@@ -4,7 +4,7 @@
 use super::listen::TickEvent;
 use super::metrics::{percentiles, Metrics};
 use super::tick::Episode;
-use super::{peak_memory_bytes, EpisodeFile, POINT_CLOUD};
+use super::{peak_memory_bytes, EpisodeFile, StopRequest, POINT_CLOUD};
 use crate::error::{Result, SimError};
 use crate::evaluate::{evaluate, Evaluation};
 use crate::record::Versions;
@@ -22,19 +22,36 @@ impl Episode {
         self.write_map()?;
         let simulated = self.time();
         let final_pose = self.world.pose();
+        let stop = self.config.stop.clone();
         let evaluation = evaluate(
             &self.world,
             &mut self.camera,
             self.mapper.engine(),
             self.mapper.map(),
             &self.tests,
+            &|| stop.requested().is_some(),
         )?;
-        if !self.tests.surface.is_empty() {
+        // A signal during the evaluation stops it (nothing is scored) and is said in `ended`.
+        let ended = match stop.requested() {
+            Some(signal) if !ended.starts_with("interrupted") => format!(
+                "interrupted at t = {simulated:.1} s by {} during the evaluation (not scored; {ended})",
+                StopRequest::signal_name(signal)
+            ),
+            _ => ended,
+        };
+        if evaluation.coverage.is_finite() {
             self.coverage_over_time
                 .push([simulated, evaluation.coverage]);
+            // The same few views as during the episode (the final scores use every view).
+            if let Some(psnr) = self
+                .truth_views
+                .psnr(self.mapper.engine(), self.mapper.map())?
+            {
+                self.psnr_over_time.push([simulated, psnr]);
+            }
         }
         self.write_trajectory_png(simulated, &evaluation)?;
-        let metrics = self.metrics(simulated, ended, evaluation);
+        let mut metrics = self.metrics(simulated, ended, evaluation);
         let mut listeners = std::mem::take(&mut self.listeners.others);
         let finished = TickEvent::Finished {
             time: simulated,
@@ -43,21 +60,28 @@ impl Episode {
         for listener in &mut listeners {
             listener.hear(&finished)?;
         }
-        if let Some(mut log) = self.listeners.rerun.take() {
+        let rerun = self.listeners.rerun.take();
+        let writer = self.listeners.writer;
+        crate::dataset::write_json(&writer.dir().join("metrics.json"), &metrics)?;
+        let interrupted = self.config.stop.requested().is_some();
+        metrics.folder = writer.finish(
+            &EpisodeFile {
+                command: "run",
+                config: &self.config,
+                versions: Versions::current(&self.gl),
+                start_pose: self.start_pose,
+                final_pose,
+                planner_settings: self.planner_settings,
+            },
+            interrupted,
+        )?;
+        // The recording is flushed after the folder is in place: a viewer that went away must
+        // not strand a complete episode in its staging folder.
+        if let Some(mut log) = rerun {
             use super::listen::TickListener;
             log.hear(&finished)?;
             log.finish()?;
         }
-        let writer = self.listeners.writer;
-        crate::dataset::write_json(&writer.dir().join("metrics.json"), &metrics)?;
-        writer.finish(&EpisodeFile {
-            command: "run",
-            config: &self.config,
-            versions: Versions::current(&self.gl),
-            start_pose: self.start_pose,
-            final_pose,
-            planner_settings: self.planner_settings,
-        })?;
         Ok(metrics)
     }
 
@@ -78,7 +102,7 @@ impl Episode {
     fn write_trajectory_png(&self, simulated: f64, evaluation: &Evaluation) -> Result<()> {
         let world = &self.config.world;
         let title = format!(
-            "{} | {} | {:.0} of {:.0} s | coverage {:.1}% | PSNR {:.1} dB",
+            "{} | {} | {:.0} of {:.0} s | coverage {} | PSNR {}",
             world.file_name().map_or_else(
                 || world.display().to_string(),
                 |n| n.to_string_lossy().into_owned()
@@ -86,8 +110,8 @@ impl Episode {
             &self.planner_name,
             simulated,
             self.config.budget,
-            100.0 * evaluation.coverage,
-            evaluation.psnr
+            score(100.0 * evaluation.coverage, "%"),
+            score(evaluation.psnr, " dB")
         );
         crate::plot::write_trajectory_png(
             &self.listeners.writer.dir().join("trajectory.png"),
@@ -128,6 +152,18 @@ impl Episode {
             peak_memory_bytes: peak_memory_bytes(),
             evaluation,
             coverage_over_time: self.coverage_over_time.clone(),
+            done_at: self.done.as_ref().map(|(at, _)| *at),
+            psnr_over_time: self.psnr_over_time.clone(),
+            folder: self.listeners.writer.target().to_owned(),
         }
+    }
+}
+
+/// A score with one decimal and its unit, or "n/a" when it was not measured.
+fn score(value: f64, unit: &str) -> String {
+    if value.is_finite() {
+        format!("{value:.1}{unit}")
+    } else {
+        "n/a".into()
     }
 }

@@ -81,4 +81,15 @@ pub struct Metrics {
     /// Coverage of the hidden test set over the episode: `[simulated seconds, coverage]` every
     /// 10 simulated seconds (the progress display's rate) and at the end (the evaluation's).
     pub coverage_over_time: Vec<[f64; 2]>,
+    /// The map's PSNR (dB) at the instants of `coverage_over_time`, on a fixed subsample of
+    /// the hidden views (`PSNR_OVER_TIME_VIEWS`, spread over the set; the final `evaluation`
+    /// uses them all): planners compared at equal times, not only at their ends.
+    pub psnr_over_time: Vec<[f64; 2]>,
+    /// When the planner said it was done (simulated seconds; null when it never did): the
+    /// episode ran on to its budget from there, the robot still and the mapper on its schedule.
+    pub done_at: Option<f64>,
+    /// Where the episode folder was written: `--out`, or beside it when the episode was
+    /// interrupted and did not replace a complete one (not in metrics.json).
+    #[serde(skip)]
+    pub folder: std::path::PathBuf,
 }

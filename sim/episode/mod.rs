@@ -78,6 +78,12 @@ pub struct RunConfig {
     pub sensor: SensorConfig,
     /// Hidden test views sampled in free space for the evaluation (0: none).
     pub test_views: usize,
+    /// End the episode when the planner says it is done (else it runs to its budget with the
+    /// robot still and the mapper on its schedule: the same mapping time for every planner).
+    pub stop_when_done: bool,
+    /// With the planner done at t, end at this multiple of t (within the budget): a sweep's
+    /// survey runs to the time every other planner then gets.
+    pub done_factor: Option<f64>,
     /// Spherical-harmonic degree of map.ply: 0, or 3 for the reference 3DGS loader.
     pub ply_sh_degree: u8,
     /// How the start pose is chosen.
@@ -158,6 +164,12 @@ impl RunConfig {
                     detail: format!("{v}; give a positive number"),
                 });
             }
+        }
+        if let Some(f) = self.done_factor.filter(|f| !(f.is_finite() && *f >= 1.0)) {
+            return Err(SimError::InvalidArgument {
+                what: "--done-factor",
+                detail: format!("{f}; give a multiple of the planner's time of 1 or more"),
+            });
         }
         self.sensor.validate()
     }

@@ -159,18 +159,23 @@ pub fn record(config: &RecordConfig, on_progress: &mut dyn FnMut(f64)) -> Result
     }
     let final_pose = world.pose();
     let frames = writer.frame_count();
+    // The dataset is put in place before the recording is flushed: a viewer that went away
+    // must not strand a complete dataset in its staging folder.
+    let out = writer.finish(
+        &EpisodeFile {
+            command: "record",
+            config,
+            versions: Versions::current(&gl),
+            timestep,
+            frames,
+            collision_steps,
+            final_pose,
+        },
+        false,
+    )?;
     if let Some(log) = rerun {
         log.finish()?;
     }
-    let out = writer.finish(&EpisodeFile {
-        command: "record",
-        config,
-        versions: Versions::current(&gl),
-        timestep,
-        frames,
-        collision_steps,
-        final_pose,
-    })?;
     Ok(RecordSummary {
         out,
         frames,

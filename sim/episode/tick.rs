@@ -18,7 +18,7 @@ use crate::camera::{RgbdCamera, RgbdFrame};
 use crate::dataset::DatasetWriter;
 use crate::egl::EglContext;
 use crate::error::{Result, SimError};
-use crate::evaluate::TestSet;
+use crate::evaluate::{TestSet, TruthViews, PSNR_OVER_TIME_VIEWS};
 use crate::planners::{self, PlannerChoice, PlannerContext, PlannerKind};
 use crate::rerun_log::RerunLog;
 use crate::robot::{Pose2, UnicycleCommand};
@@ -68,7 +68,14 @@ pub struct Episode {
     pub(super) tally: Tally,
     coverage: Option<f64>,
     pub(super) coverage_over_time: Vec<[f64; 2]>,
+    /// A few test views' ground truth, for `psnr_over_time`.
+    pub(super) truth_views: TruthViews,
+    /// The map's PSNR on `truth_views` at the instants of `coverage_over_time`.
+    pub(super) psnr_over_time: Vec<[f64; 2]>,
     caller_command: Option<UnicycleCommand>,
+    /// When the planner said it was done, and why: from then on the robot holds still and
+    /// the mapper keeps its schedule until the budget (unless `stop_when_done`).
+    pub(super) done: Option<(f64, String)>,
     pub(super) ended: Option<String>,
     /// The current tick's first half (stop check, capture) ran; its think and physics not yet.
     mid_tick: bool,
@@ -106,6 +113,8 @@ pub enum Think {
     Holding,
     /// The caller's command ([`Episode::apply`]) was driven.
     Driven(UnicycleCommand),
+    /// The planner is done: the robot holds still while the mapper goes on.
+    Idle,
 }
 
 /// What happened in one [`Episode::step`].
@@ -157,19 +166,6 @@ impl Episode {
         crate::world_check::require_floor(&world)?;
         let gl = EglContext::new()?;
         let camera = world.make_camera(&config.sensor, config.seed, &gl)?;
-        let mut writer =
-            DatasetWriter::create(&config.out, config.sensor.max_range, config.overwrite)?;
-        if let Some(frames) = config.fail_writes_after {
-            writer.fail_writes_after(frames);
-        }
-        writer.name_point_cloud(POINT_CLOUD);
-        let title = format!(
-            "run {} {} seed {}",
-            config.world.display(),
-            config.planner,
-            config.seed
-        );
-        let rerun = RerunLog::open(&config.rerun, &title)?;
         let engine = Rasteriser::select(config.engine);
         let engine_name = engine.describe();
         let mapper_config = MapperConfig {
@@ -206,6 +202,21 @@ impl Episode {
         };
         let planner_name = planner.name().to_owned();
         let planner_settings = planner.settings();
+        // The folder and the recording are opened once every setting has been accepted (the
+        // planner's too), so a refused setting leaves nothing behind.
+        let mut writer =
+            DatasetWriter::create(&config.out, config.sensor.max_range, config.overwrite)?;
+        if let Some(frames) = config.fail_writes_after {
+            writer.fail_writes_after(frames);
+        }
+        writer.name_point_cloud(POINT_CLOUD);
+        let title = format!(
+            "run {} {} seed {}",
+            config.world.display(),
+            config.planner,
+            config.seed
+        );
+        let rerun = RerunLog::open(&config.rerun, &title)?;
         // Fixed before the episode so coverage can be reported as it grows.
         let tests = TestSet::sample(
             &world,
@@ -213,6 +224,12 @@ impl Episode {
             config.test_views,
             test_seed(config.seed),
             config.sensor.max_range,
+        )?;
+        let truth_views = TruthViews::capture(
+            &world,
+            &mut world.make_camera(&config.sensor, test_seed(config.seed), &gl)?,
+            &tests,
+            PSNR_OVER_TIME_VIEWS,
         )?;
         let timestep = world.model().timestep();
         let clock = Clock {
@@ -252,7 +269,10 @@ impl Episode {
             have_frame: false,
             coverage: None,
             coverage_over_time: Vec::new(),
+            truth_views,
+            psnr_over_time: Vec::new(),
             caller_command: None,
+            done: None,
             ended: None,
             mid_tick: false,
         })
@@ -448,8 +468,19 @@ impl Episode {
     /// The budget, a stop request, then the camera and the controller's schedule start.
     fn begin_tick(&mut self) -> Result<()> {
         if self.clock.step >= self.clock.steps {
-            self.ended = Some("budget".to_owned());
+            self.ended = Some(match &self.done {
+                Some((at, why)) => format!("budget (planner done at t = {at:.1} s: {why})"),
+                None => "budget".to_owned(),
+            });
             return Ok(());
+        }
+        if let (Some((at, why)), Some(factor)) = (&self.done, self.config.done_factor) {
+            if self.clock.due(self.time(), factor * at) {
+                self.ended = Some(format!(
+                    "{factor} x the planner's time (planner done at t = {at:.1} s: {why})"
+                ));
+                return Ok(());
+            }
         }
         if let Some(signal) = self.config.stop.requested() {
             self.ended = Some(format!(
@@ -515,6 +546,14 @@ impl Episode {
                 commit: 0.0,
             });
             Think::Driven(command)
+        } else if self.done.is_some() {
+            self.control.drive(Schedule {
+                start: time,
+                period: self.config.think_period,
+                commands: vec![UnicycleCommand { v: 0.0, w: 0.0 }],
+                commit: 0.0,
+            });
+            Think::Idle
         } else if self.control.holding(time + 0.5 * self.clock.timestep) {
             Think::Holding
         } else {
@@ -536,14 +575,22 @@ impl Episode {
     /// One mapping step on the newest frame; its wall seconds.
     fn map_frame(&mut self, time: f64) -> Result<f64> {
         let t0 = Instant::now();
-        let observation = Frame::from_rgb8(&self.frame.rgb, self.frame.depth.clone());
-        self.mapper
-            .integrate(
-                &observation,
-                &self.frame.camera.world_from_camera.to_homogeneous(),
-                &self.frame.camera.intrinsics,
-            )
-            .map_err(|e| SimError::Mapping(e.to_string()))?;
+        if self.done.is_some() {
+            // The robot is idle: its frames bring nothing new, so the step refines the map
+            // over its keyframes instead of fitting one view again and again.
+            self.mapper
+                .refine()
+                .map_err(|e| SimError::Mapping(e.to_string()))?;
+        } else {
+            let observation = Frame::from_rgb8(&self.frame.rgb, self.frame.depth.clone());
+            self.mapper
+                .integrate(
+                    &observation,
+                    &self.frame.camera.world_from_camera.to_homogeneous(),
+                    &self.frame.camera.intrinsics,
+                )
+                .map_err(|e| SimError::Mapping(e.to_string()))?;
+        }
         let seconds = t0.elapsed().as_secs_f64();
         self.tally.times.mapping.push(seconds);
         self.listeners.tell(&TickEvent::Mapped {
@@ -572,9 +619,30 @@ impl Episode {
         let think = decision.clone().map_or(Think::Overruled, Think::Planned);
         let spent = ThinkTime { mapping, planning };
         if let Verdict::End(reason) = self.control.take(decision, time, pose, start, spent, lead) {
-            self.ended = Some(reason);
+            self.planner_done(time, reason);
         }
         Ok(think)
+    }
+
+    /// The planner has nothing left to do. By default the episode goes on to its budget (or
+    /// `done_factor` times this time) with the robot still and the mapper on its schedule, so
+    /// every planner's map gets the same mapping time; `stop_when_done` ends it now.
+    fn planner_done(&mut self, time: f64, reason: String) {
+        if self.config.stop_when_done {
+            self.done = Some((time, reason.clone()));
+            self.ended = Some(reason);
+            return;
+        }
+        tracing::info!(
+            "t = {time:.1} s: the planner is done ({reason}); the robot holds still and the mapper goes on"
+        );
+        self.control.drive(Schedule {
+            start: time,
+            period: self.config.think_period,
+            commands: vec![UnicycleCommand { v: 0.0, w: 0.0 }],
+            commit: 0.0,
+        });
+        self.done = Some((time, reason));
     }
 
     /// The map's coverage of the hidden test set, every [`COVERAGE_PERIOD`] seconds.
@@ -588,6 +656,12 @@ impl Episode {
         self.clock.next_coverage += COVERAGE_PERIOD;
         self.coverage = Some(coverage);
         self.coverage_over_time.push([time, coverage]);
+        if let Some(psnr) = self
+            .truth_views
+            .psnr(self.mapper.engine(), self.mapper.map())?
+        {
+            self.psnr_over_time.push([time, psnr]);
+        }
         self.listeners.tell(&TickEvent::Coverage { time, coverage })
     }
 

@@ -70,6 +70,12 @@ struct RenderRecord<'a> {
 }
 
 fn read_map(path: &Path) -> Result<autonomy::map::GaussianMap> {
+    if !path.is_file() {
+        return Err(SimError::MissingFile {
+            what: "map (--map)",
+            path: path.to_owned(),
+        });
+    }
     autonomy::ply::read(path).map_err(|e| SimError::BadDataset {
         path: path.to_owned(),
         detail: format!("{e}; give the map.ply an episode wrote (or any 3DGS PLY)"),
@@ -86,6 +92,12 @@ pub fn render_map(config: &RenderConfig, on_frame: &mut dyn FnMut(usize, usize))
             true,
             &[&config.map, &config.poses, &config.camera],
         )?;
+    }
+    if !config.poses.is_file() {
+        return Err(SimError::MissingFile {
+            what: "poses (--poses)",
+            path: config.poses.clone(),
+        });
     }
     let map = read_map(&config.map)?;
     let camera_file = CameraFile::read(&config.camera)?;
@@ -117,11 +129,14 @@ pub fn render_map(config: &RenderConfig, on_frame: &mut dyn FnMut(usize, usize))
         on_frame(k + 1, poses.len());
     }
     let frames = writer.frame_count();
-    writer.finish(&RenderRecord {
-        command: "render",
-        config,
-        engine: engine.describe(),
-    })?;
+    writer.finish(
+        &RenderRecord {
+            command: "render",
+            config,
+            engine: engine.describe(),
+        },
+        false,
+    )?;
     Ok(frames)
 }
 
@@ -163,6 +178,7 @@ pub fn evaluate_map_surface(
         &Rasteriser::select(engine),
         &map,
         &tests,
+        &|| false,
     )?;
     let surface = tests
         .surface

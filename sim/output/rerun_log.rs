@@ -68,6 +68,9 @@ impl RerunTarget {
                 detail: "0; give 1 (every mapping step) or more".into(),
             });
         }
+        if let Some(address) = &self.connect {
+            reach_viewer(address)?;
+        }
         let Some(file) = &self.file else {
             return Ok(());
         };
@@ -97,6 +100,39 @@ impl RerunTarget {
         }
         Ok(())
     }
+}
+
+/// Refuses a viewer address nothing answers at, before an episode is run for it: the SDK
+/// only finds out when the recording is flushed at the end.
+fn reach_viewer(address: &str) -> Result<()> {
+    use std::net::{TcpStream, ToSocketAddrs};
+    let url = viewer_url(address);
+    let host_port = url
+        .split_once("://")
+        .map_or(url.as_str(), |(_, rest)| rest)
+        .split('/')
+        .next()
+        .unwrap_or_default();
+    let refuse = |why: String| {
+        SimError::InvalidArgument {
+        what: "--rerun-connect",
+        detail: format!(
+            "no rerun viewer answers at {address} ({why}); start one with `rerun` (it prints its address) or drop --rerun-connect"
+        ),
+    }
+    };
+    let targets: Vec<_> = host_port
+        .to_socket_addrs()
+        .map_err(|e| refuse(e.to_string()))?
+        .collect();
+    let mut last = String::from("the name resolves to no address");
+    for target in targets {
+        match TcpStream::connect_timeout(&target, std::time::Duration::from_secs(3)) {
+            Ok(_) => return Ok(()),
+            Err(e) => last = e.to_string(),
+        }
+    }
+    Err(refuse(last))
 }
 
 /// The gRPC address a viewer listens on, from what a person types: a full

@@ -58,6 +58,10 @@ pub fn parse_pose(text: &str) -> std::result::Result<Pose2, String> {
 /// pose; a start where the robot touches the world is an error that names what it touches.
 pub fn place_robot(world: &mut World, spawn: Spawn, seed: u64) -> Result<Pose2> {
     match spawn {
+        Spawn::Site if !world.has_spawn_site() => tracing::warn!(
+            "{} has no site named \"spawn\", so the robot starts at the origin facing +x; add <site name=\"spawn\" pos=\"X Y 0\"/> to the world or pass --spawn x,y,yaw (or random)",
+            world.model().path().display()
+        ),
         Spawn::Site => {}
         Spawn::Pose(pose) => world.set_start(pose),
         Spawn::Random => {

@@ -18,6 +18,8 @@ pub struct World {
     data: Data,
     robot: Robot,
     start: Pose2,
+    /// Whether the MJCF has a `spawn` site (else the start is the origin).
+    has_spawn_site: bool,
 }
 
 impl std::fmt::Debug for World {
@@ -41,7 +43,9 @@ impl World {
         let robot = Robot::find(&model)?;
         let model = Arc::new(model);
         let data = Data::new(Arc::clone(&model))?;
-        let start = match model.id(ObjKind::Site, names::SPAWN_SITE, "") {
+        let site = model.id(ObjKind::Site, names::SPAWN_SITE, "");
+        let has_spawn_site = site.is_ok();
+        let start = match site {
             Ok(site) => {
                 let p = data.site_position(site);
                 let r = data.site_rotation(site);
@@ -58,9 +62,15 @@ impl World {
             data,
             robot,
             start,
+            has_spawn_site,
         };
         world.reset();
         Ok(world)
+    }
+
+    /// Whether the world names its start with a `spawn` site.
+    pub fn has_spawn_site(&self) -> bool {
+        self.has_spawn_site
     }
 
     /// Overrides the start pose and resets to it.

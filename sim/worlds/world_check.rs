@@ -34,7 +34,9 @@ const FLOOR_PROBE_SPACING: f64 = 1.0;
 /// What a check found.
 #[derive(Debug, Clone, Serialize)]
 pub struct WorldReport {
-    /// Area inside the outer walls (obstacles' footprints included), m2.
+    /// Area inside the world's outer boundary, m2: the outer walls' and every obstacle's
+    /// footprint included (what a floor plan measures; a generated world's `area` is the floor
+    /// inside its walls, 4-7% less).
     pub floor_area: f64,
     /// Area inside the outer walls that no obstacle covers at the robot's heights, m2.
     pub free_area: f64,

@@ -20,6 +20,10 @@ use crate::splat::{Rasteriser, RenderError};
 use std::time::Instant;
 use thiserror::Error;
 
+/// Learning rates of [`Mapper::refine`] as a share of the mapping rates: 3DGS decays its
+/// position rate 100x over training; steps without a new frame are late training.
+pub const REFINE_RATE_SCALE: f32 = 0.1;
+
 /// One RGB-D image: RGB in [0, 1] (3 per pixel, rows top to bottom) and planar depth in metres
 /// (0: no measurement).
 #[derive(Debug, Clone, PartialEq)]
@@ -221,6 +225,8 @@ pub struct Mapper {
     /// SplaTAM's scene radius: the largest measured depth so far / 3.
     scene_radius: f32,
     steps: usize,
+    /// The keyframe the next [`Mapper::refine`] iteration starts from (they take turns).
+    refine_next: usize,
     /// With the GPU engine: the map's resident copy and the views uploaded to it.
     resident: Option<ResidentViews>,
 }
@@ -246,6 +252,7 @@ impl Mapper {
             adam: Adam::new(config_rates),
             scene_radius: 0.0,
             steps: 0,
+            refine_next: 0,
             resident: None,
         }
     }
@@ -333,6 +340,53 @@ impl Mapper {
         Ok(report)
     }
 
+    /// A mapping step without a new frame, for when the camera brings nothing new (the
+    /// robot idle after its planner is done): every iteration on a keyframe, all of them in
+    /// turn across steps, so the time improves the whole map instead of fitting one view
+    /// seen over and over (which lowers the PSNR of every other view). No growth; the
+    /// uncertainty and pruning as in [`Mapper::integrate`]. A step without keyframes does
+    /// nothing but count.
+    pub fn refine(&mut self) -> Result<StepReport, MapError> {
+        let mut report = StepReport::default();
+        self.steps += 1;
+        report.gaussians = self.map.len();
+        if self.keyframes.is_empty() || self.config.iterations == 0 {
+            return Ok(report);
+        }
+        let t1 = Instant::now();
+        let count = self.keyframes.len();
+        let views: Vec<Option<usize>> = (0..self.config.iterations)
+            .map(|k| Some((self.refine_next + k) % count))
+            .collect();
+        self.refine_next = (self.refine_next + self.config.iterations) % count;
+        // The "current frame" slot is unused (every view is a keyframe); the first keyframe
+        // fills it for the engines' sake.
+        let first = self.keyframes[views[0].unwrap_or(0)].clone();
+        let before = self.map.gaussians.means.clone();
+        let mut touched = vec![false; self.map.len()];
+        self.adam.resize(self.map.len());
+        report.window = count.min(views.len());
+        // No new information: late-training rates, so the map settles instead of moving on
+        // (at the mapping rates, hundreds of such iterations lowered every held-out view's
+        // PSNR: BENCHMARKS.md, "A fair comparison").
+        self.adam.rates = self.config.rates.scaled(REFINE_RATE_SCALE);
+        let outcome =
+            match self.optimise_resident(&first.frame, &first.camera, &views, &mut touched) {
+                Ok(Some(loss)) => Ok(loss),
+                Ok(None) => self.optimise(&first.frame, &first.camera, &views, &mut touched),
+                Err(e) => Err(e),
+            };
+        self.adam.rates = self.config.rates;
+        report.loss = outcome?;
+        let t2 = Instant::now();
+        self.update_uncertainty(&before, &touched);
+        report.pruned = self.prune();
+        report.gaussians = self.map.len();
+        report.seconds = [0.0, (t2 - t1).as_secs_f64(), t2.elapsed().as_secs_f64()];
+        tracing::debug!(?report, "refining step");
+        Ok(report)
+    }
+
     /// Grows the map where the frame shows what it is missing; the count added.
     fn grow(&mut self, frame: &Frame, camera: &PinholeCamera) -> Result<usize, MapError> {
         let rendered = if self.map.is_empty() {
@@ -405,6 +459,7 @@ impl Mapper {
                 slot
             }
         };
+        state.map.set_rates(self.adam.rates);
         state
             .map
             .load(gpu, &self.map.gaussians, self.adam.state())?;

@@ -92,11 +92,22 @@ pub enum SweepBackend {
     Slurm,
 }
 
-/// Runs, resumes, or takes one step of a sweep; `Some(code)` is never returned today (a
-/// sweep stopped by a signal exits through its error).
+/// Runs, resumes, or takes one step of a sweep; `Some(code)` (130 or 143) when a signal
+/// stopped it: no new episode was started, the running ones were passed the signal, and
+/// the same command resumes it.
 pub fn sweep(args: SweepArgs) -> Result<Option<u8>> {
+    use crate::episode::StopRequest;
     use crate::sweep::{self, Backend, Sweep, SweepSpec};
     let binary = std::env::current_exe().context("cannot find the splatloop binary")?;
+    let stop = StopRequest::default();
+    for (signal, code) in [
+        (signal_hook::consts::SIGINT, StopRequest::SIGINT),
+        (signal_hook::consts::SIGTERM, StopRequest::SIGTERM),
+    ] {
+        signal_hook::flag::register_usize(signal, stop.flag(), code)
+            .context("cannot install the signal handlers")?;
+    }
+    let stopped_code = |code: usize| Some(u8::try_from(code).unwrap_or(1));
     let gathered = |sweep: &Sweep| -> Result<()> {
         let rows = sweep::results::collect(sweep)?;
         let complete = rows.iter().filter(|r| r.status == "complete").count();
@@ -114,7 +125,14 @@ pub fn sweep(args: SweepArgs) -> Result<Option<u8>> {
         }
         Some(SweepStep::Episode { out, index }) => {
             let sweep = Sweep::load(&out)?;
-            return match sweep::run_one(&sweep, index, &binary)? {
+            let outcome = sweep::run_one(&sweep, index, &binary, &stop)?;
+            if let Some(code) = stop.requested() {
+                eprintln!(
+                    "episode {index}: stopped by a signal; rerun the same command to run it again"
+                );
+                return Ok(stopped_code(code));
+            }
+            return match outcome {
                 None => {
                     println!(
                         "episode {index} is complete: {}",
@@ -186,7 +204,7 @@ pub fn sweep(args: SweepArgs) -> Result<Option<u8>> {
         "{spinner} sweep [{bar:30}] {msg} ({elapsed} wall)",
         "sweep",
     );
-    let report = sweep::run_sweep(&sweep, &backend, &binary, &mut |p| {
+    let report = sweep::run_sweep(&sweep, &backend, &binary, &stop, &mut |p| {
         bar.update((p.complete + p.failed) as u64, || {
             let eta = p
                 .eta_seconds
@@ -206,6 +224,13 @@ pub fn sweep(args: SweepArgs) -> Result<Option<u8>> {
         report.failed.len()
     );
     gathered(&sweep)?;
+    if let Some(code) = report.stopped {
+        eprintln!(
+            "sweep: stopped by {}: no episode was started after it, the running ones were written as interrupted; rerun the same command to resume",
+            StopRequest::signal_name(code)
+        );
+        return Ok(stopped_code(code));
+    }
     if !report.failed.is_empty() {
         for (index, error) in &report.failed {
             eprintln!(

@@ -5,6 +5,7 @@
 //! its error recorded beside its folder, and the others go on.
 
 use super::spec::{EpisodeState, Sweep};
+use crate::episode::StopRequest;
 use crate::error::{Result, SimError};
 use std::io::BufRead;
 use std::path::{Path, PathBuf};
@@ -66,6 +67,9 @@ pub struct SweepReport {
     pub ran: usize,
     /// Failed in this run: episode index and error.
     pub failed: Vec<(usize, String)>,
+    /// The signal's exit code when one stopped the sweep (no episode started after it; the
+    /// running ones were passed the signal and wrote their interrupted folders).
+    pub stopped: Option<usize>,
 }
 
 /// One episode to run: its index and the command line of its `splatloop run`.
@@ -86,10 +90,12 @@ enum Event {
 }
 
 /// Runs every episode of `sweep` that is not complete, with `binary` as `splatloop`.
+/// A signal in `stop` starts no new episode and is passed on to the running ones.
 pub fn run_sweep(
     sweep: &Sweep,
     backend: &Backend,
     binary: &Path,
+    stop: &StopRequest,
     on_progress: &mut dyn FnMut(&SweepProgress),
 ) -> Result<SweepReport> {
     let _lock = lock_sweep(sweep)?;
@@ -113,6 +119,9 @@ pub fn run_sweep(
     progress.complete = report.skipped;
     on_progress(&progress);
     for (number, batch) in sweep.batches().into_iter().enumerate() {
+        if stop.requested().is_some() {
+            break;
+        }
         if let Some(factor) = sweep.factor().filter(|_| number > 0) {
             // The surveys have run: say which set a budget from their cap, not their route.
             for survey in sweep.cut_short_surveys() {
@@ -165,7 +174,7 @@ pub fn run_sweep(
             Ok(())
         };
         match backend {
-            Backend::Local { jobs } => execute_local(&tasks, *jobs, &mut on_event)?,
+            Backend::Local { jobs } => execute_local(sweep, &tasks, *jobs, stop, &mut on_event)?,
             Backend::Ray {
                 address,
                 python,
@@ -181,26 +190,68 @@ pub fn run_sweep(
                     jobs: *jobs,
                     cpus_per_episode: *cpus_per_episode,
                 },
+                stop,
                 &mut on_event,
             )?,
         }
     }
+    report.stopped = stop.requested();
     Ok(report)
 }
 
 /// Takes OUT/.sweep.lock for the sweep's life (the kernel drops it if the process dies), so
-/// two sweeps never run the same episodes at once.
+/// two sweeps never run the same episodes at once; `sweep episode` takes it shared, so the
+/// tasks of a Slurm array run side by side but never beside a whole sweep.
 fn lock_sweep(sweep: &Sweep) -> Result<std::fs::File> {
+    take_sweep_lock(sweep, false)
+}
+
+fn take_sweep_lock(sweep: &Sweep, shared: bool) -> Result<std::fs::File> {
     let path = sweep.out.join(".sweep.lock");
     let file = std::fs::File::create(&path).map_err(|e| SimError::io("cannot create", &path, e))?;
-    match file.try_lock() {
+    let taken = if shared {
+        file.try_lock_shared()
+    } else {
+        file.try_lock()
+    };
+    match taken {
         Ok(()) => Ok(file),
         Err(std::fs::TryLockError::WouldBlock) => Err(SimError::InvalidArgument {
             what: "--out",
-            detail: format!(
-                "another sweep is running in {}; wait for it, or stop it and rerun",
-                sweep.out.display()
-            ),
+            detail: if shared {
+                format!(
+                    "a sweep is running in {}: it runs this episode itself; wait for it, or stop it first",
+                    sweep.out.display()
+                )
+            } else {
+                format!(
+                    "another sweep (or a `sweep episode` task) is running in {}; wait for it, or stop it and rerun",
+                    sweep.out.display()
+                )
+            },
+        }),
+        Err(std::fs::TryLockError::Error(e)) => Err(SimError::io("cannot lock", path, e)),
+    }
+}
+
+/// Takes the lock of one episode (`.SEED.task.lock` beside its log; `.SEED.lock` is its
+/// run's own folder lock) before its log is opened, so two processes never run one episode
+/// or write one log.
+fn lock_episode(sweep: &Sweep, index: usize) -> Result<std::fs::File> {
+    let log = sweep.log(&sweep.episodes[index]);
+    let name = log
+        .file_stem()
+        .map_or_else(|| format!("{index}"), |s| s.to_string_lossy().into_owned());
+    let path = log.with_file_name(format!(".{name}.task.lock"));
+    if let Some(parent) = path.parent() {
+        std::fs::create_dir_all(parent).map_err(|e| SimError::io("cannot create", parent, e))?;
+    }
+    let file = std::fs::File::create(&path).map_err(|e| SimError::io("cannot create", &path, e))?;
+    match file.try_lock() {
+        Ok(()) => Ok(file),
+        Err(std::fs::TryLockError::WouldBlock) => Err(SimError::SweepEpisode {
+            index,
+            detail: "another process is running this episode; wait for it".into(),
         }),
         Err(std::fs::TryLockError::Error(e)) => Err(SimError::io("cannot lock", path, e)),
     }
@@ -208,7 +259,13 @@ fn lock_sweep(sweep: &Sweep) -> Result<std::fs::File> {
 
 /// Runs episode `index` of `sweep` here and settles it: the per-task command of a Slurm
 /// array. `Ok(None)` when it is complete (already, or now), else its error.
-pub fn run_one(sweep: &Sweep, index: usize, binary: &Path) -> Result<Option<String>> {
+pub fn run_one(
+    sweep: &Sweep,
+    index: usize,
+    binary: &Path,
+    stop: &StopRequest,
+) -> Result<Option<String>> {
+    let _sweep_lock = take_sweep_lock(sweep, true)?;
     if sweep.episodes.get(index).is_none() {
         return Err(SimError::SweepEpisode {
             index,
@@ -225,6 +282,7 @@ pub fn run_one(sweep: &Sweep, index: usize, binary: &Path) -> Result<Option<Stri
     ) {
         return Ok(None);
     }
+    let _episode_lock = lock_episode(sweep, index)?;
     let task = match task(sweep, index, binary) {
         Ok(t) => t,
         Err(error) => {
@@ -232,7 +290,7 @@ pub fn run_one(sweep: &Sweep, index: usize, binary: &Path) -> Result<Option<Stri
             return Err(error);
         }
     };
-    let outcome = run_child(&task);
+    let outcome = run_child(&task, stop);
     settle(sweep, index, outcome)
 }
 
@@ -307,8 +365,8 @@ fn log_tail(log: &Path) -> String {
     lines[lines.len().saturating_sub(LOG_TAIL_LINES)..].join("\n")
 }
 
-/// Runs a task's command with its output into its log.
-fn run_child(task: &Task) -> std::result::Result<Option<i32>, String> {
+/// Runs a task's command with its output into its log, passing a signal in `stop` on to it.
+fn run_child(task: &Task, stop: &StopRequest) -> std::result::Result<Option<i32>, String> {
     // `task` made the log's folder.
     let open = || -> std::io::Result<(std::fs::File, std::fs::File)> {
         let log = std::fs::File::create(&task.log)?;
@@ -316,20 +374,46 @@ fn run_child(task: &Task) -> std::result::Result<Option<i32>, String> {
         Ok((log, copy))
     };
     let (out, err) = open().map_err(|e| format!("cannot write {}: {e}", task.log.display()))?;
-    Command::new(&task.binary)
+    let mut child = Command::new(&task.binary)
         .args(&task.args)
         .current_dir(&task.cwd)
         .stdin(Stdio::null())
         .stdout(out)
         .stderr(err)
-        .status()
-        .map(|status| status.code())
-        .map_err(|e| format!("cannot start {}: {e}", task.binary.display()))
+        .spawn()
+        .map_err(|e| format!("cannot start {}: {e}", task.binary.display()))?;
+    let mut passed_on = false;
+    loop {
+        match child.try_wait() {
+            Ok(Some(status)) => return Ok(status.code()),
+            Ok(None) => {}
+            Err(e) => return Err(format!("cannot wait for {}: {e}", task.binary.display())),
+        }
+        if let (Some(code), false) = (stop.requested(), passed_on) {
+            pass_signal_on(&child, code);
+            passed_on = true;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+}
+
+/// Sends a child the signal behind a stop request's exit code (SIGINT or SIGTERM).
+fn pass_signal_on(child: &std::process::Child, code: usize) {
+    use rustix::process::{kill_process, Pid, Signal};
+    let signal = if code == StopRequest::SIGTERM {
+        Signal::TERM
+    } else {
+        Signal::INT
+    };
+    // The child may have just ended: then there is no one to tell.
+    let _ = kill_process(Pid::from_child(child), signal);
 }
 
 fn execute_local(
+    sweep: &Sweep,
     tasks: &[Task],
     jobs: usize,
+    stop: &StopRequest,
     on_event: &mut dyn FnMut(Event) -> Result<()>,
 ) -> Result<()> {
     let next = AtomicUsize::new(0);
@@ -339,10 +423,16 @@ fn execute_local(
             let sender = sender.clone();
             let next = &next;
             scope.spawn(move || loop {
+                if stop.requested().is_some() {
+                    break;
+                }
                 let k = next.fetch_add(1, Ordering::Relaxed);
                 let Some(task) = tasks.get(k) else { break };
                 let _ = sender.send(Event::Started);
-                let outcome = run_child(task);
+                let outcome = match lock_episode(sweep, task.index) {
+                    Ok(_lock) => run_child(task, stop),
+                    Err(busy) => Err(busy.to_string()),
+                };
                 let _ = sender.send(Event::Finished(task.index, outcome));
             });
         }
@@ -373,6 +463,7 @@ fn execute_ray(
     batch: usize,
     tasks: &[Task],
     options: RayOptions,
+    stop: &StopRequest,
     on_event: &mut dyn FnMut(Event) -> Result<()>,
 ) -> Result<()> {
     let dir = sweep.out.join(".ray");
@@ -410,36 +501,61 @@ fn execute_ray(
             std::io::Error::other("no pipe"),
         )
     })?;
-    let mut first_error = None;
-    for line in std::io::BufReader::new(stdout).lines() {
-        let line = line.map_err(|e| SimError::io("cannot read the output of", &driver, e))?;
-        let words: Vec<&str> = line.splitn(3, ' ').collect();
-        let index = words.get(1).and_then(|w| w.parse::<usize>().ok());
-        let event = match (words.first().copied(), index) {
-            (Some("started"), Some(_)) => Event::Started,
-            (Some("finished"), Some(i)) => {
-                let code = words.get(2).and_then(|w| w.trim().parse::<i32>().ok());
-                // Python reports a process killed by signal N as -N.
-                Event::Finished(i, Ok(code.filter(|&c| c >= 0)))
+    // A signal to the sweep is passed on to the driver, whose tasks then end.
+    let reading = std::sync::atomic::AtomicBool::new(true);
+    let first_error = std::thread::scope(|scope| -> Result<Option<SimError>> {
+        scope.spawn(|| {
+            while reading.load(Ordering::Relaxed) {
+                if let Some(code) = stop.requested() {
+                    pass_signal_on(&child, code);
+                    break;
+                }
+                std::thread::sleep(std::time::Duration::from_millis(100));
             }
-            (Some("failed"), Some(i)) => Event::Finished(
-                i,
-                Err(format!(
-                    "the Ray task failed: {}",
-                    words.get(2).copied().unwrap_or("")
-                )),
-            ),
-            _ => continue,
-        };
-        if let Err(e) = on_event(event) {
-            first_error.get_or_insert(e);
+        });
+        let mut first_error = None;
+        for line in std::io::BufReader::new(stdout).lines() {
+            let line = match line {
+                Ok(line) => line,
+                Err(e) => {
+                    reading.store(false, Ordering::Relaxed);
+                    return Err(SimError::io("cannot read the output of", &driver, e));
+                }
+            };
+            let words: Vec<&str> = line.splitn(3, ' ').collect();
+            let index = words.get(1).and_then(|w| w.parse::<usize>().ok());
+            let event = match (words.first().copied(), index) {
+                (Some("started"), Some(_)) => Event::Started,
+                (Some("finished"), Some(i)) => {
+                    let code = words.get(2).and_then(|w| w.trim().parse::<i32>().ok());
+                    // Python reports a process killed by signal N as -N.
+                    Event::Finished(i, Ok(code.filter(|&c| c >= 0)))
+                }
+                (Some("failed"), Some(i)) => Event::Finished(
+                    i,
+                    Err(format!(
+                        "the Ray task failed: {}",
+                        words.get(2).copied().unwrap_or("")
+                    )),
+                ),
+                _ => continue,
+            };
+            if let Err(e) = on_event(event) {
+                first_error.get_or_insert(e);
+            }
         }
-    }
+        reading.store(false, Ordering::Relaxed);
+        Ok(first_error)
+    })?;
     let status = child
         .wait()
         .map_err(|e| SimError::io("cannot wait for the Ray driver", &driver, e))?;
     if let Some(e) = first_error {
         return Err(e);
+    }
+    if stop.requested().is_some() {
+        // Stopped on purpose: the episodes it ran are settled; the rest are not run.
+        return Ok(());
     }
     if !status.success() {
         let mut tail = log_tail(&driver_log);

@@ -33,7 +33,7 @@ const KEY_COLUMNS: [&str; 9] = [
 
 /// Metrics kept out of the table: the planner's settings go in as one JSON cell, the coverage
 /// series is for the plot.
-const NESTED: [&str; 2] = ["planner_settings", "coverage_over_time"];
+const NESTED: [&str; 3] = ["planner_settings", "coverage_over_time", "psnr_over_time"];
 
 /// One episode's row.
 #[derive(Debug, Clone)]
@@ -54,6 +54,9 @@ pub struct Row {
     pub cells: BTreeMap<String, String>,
     /// The coverage series (`[t, coverage]`), empty unless complete.
     pub coverage_over_time: Vec<[f64; 2]>,
+    /// The PSNR series (`[t, dB]`, on a few hidden views), empty unless complete (and for
+    /// episodes written before it was measured).
+    pub psnr_over_time: Vec<[f64; 2]>,
 }
 
 impl Row {
@@ -70,6 +73,7 @@ pub fn gather(sweep: &Sweep) -> (Vec<String>, Vec<Row>) {
     for e in &sweep.episodes {
         let mut cells = BTreeMap::new();
         let mut series = Vec::new();
+        let mut psnr_series = Vec::new();
         let state = sweep.state(e);
         let status = match &state {
             EpisodeState::Complete { .. } => "complete",
@@ -107,12 +111,8 @@ pub fn gather(sweep: &Sweep) -> (Vec<String>, Vec<Row>) {
                 }
                 cells.insert(key, value);
             }
-            if let Some(points) = metrics["coverage_over_time"].as_array() {
-                series = points
-                    .iter()
-                    .filter_map(|p| Some([p[0].as_f64()?, p[1].as_f64()?]))
-                    .collect();
-            }
+            series = time_series(&metrics["coverage_over_time"]);
+            psnr_series = time_series(&metrics["psnr_over_time"]);
         }
         rows.push(Row {
             index: e.index,
@@ -123,9 +123,20 @@ pub fn gather(sweep: &Sweep) -> (Vec<String>, Vec<Row>) {
             status,
             cells,
             coverage_over_time: series,
+            psnr_over_time: psnr_series,
         });
     }
     (columns, rows)
+}
+
+/// `[[t, value], ...]` from metrics.json (nulls skipped).
+fn time_series(value: &Value) -> Vec<[f64; 2]> {
+    value.as_array().map_or_else(Vec::new, |points| {
+        points
+            .iter()
+            .filter_map(|p| Some([p[0].as_f64()?, p[1].as_f64()?]))
+            .collect()
+    })
 }
 
 /// Scalar leaves of metrics.json as `a.b` columns; the planner's settings as one JSON cell.
@@ -261,6 +272,7 @@ pub fn summary(sweep: &Sweep, columns: &[String], rows: &[Row]) -> String {
     let names = planners(rows);
     write_per_planner(&mut md, columns, &names, &complete);
     write_per_world(&mut md, rows, &names, &complete);
+    write_equal_times(&mut md, &names, &complete);
     for (reference, title) in [("rtguide", "RT-GuIDE"), ("survey", "the survey")] {
         write_against(&mut md, reference, title, &names, &complete);
     }
@@ -312,11 +324,102 @@ fn write_protocol(md: &mut String, sweep: &Sweep, rows: &[Row], complete: usize,
             names.join(", ")
         );
     }
+    let protocol = if sweep.stop_when_done() {
+        "each episode ended when its planner said it was done (`--stop-when-done`), so a planner that finishes early had fewer mapping steps: compare at equal times below"
+    } else if sweep.factor().is_some() {
+        "every episode runs to its budget (the survey to the factor times its route's time): a planner done early holds still while the mapper goes on (`done_at` in results.csv), so every planner of a world and seed has the same simulated time and mapping steps"
+    } else {
+        "every episode runs to its budget: a planner done early holds still while the mapper goes on (`done_at` in results.csv), so every planner has the same mapping steps"
+    };
+    let _ = writeln!(md, "Protocol: {protocol}.\n");
+    let steps: Vec<String> = planners(rows)
+        .iter()
+        .filter_map(|p| {
+            let values: Vec<f64> = rows
+                .iter()
+                .filter(|r| r.status == "complete" && r.planner == *p)
+                .filter_map(|r| r.number("mapping_steps"))
+                .collect();
+            spread(&values)
+                .map(|s| format!("{p} {} [{}, {}]", show(s.mean), show(s.min), show(s.max)))
+        })
+        .collect();
+    if !steps.is_empty() {
+        let _ = writeln!(
+            md,
+            "Mapping steps (mean [min, max]): {}.\n",
+            steps.join("; ")
+        );
+    }
     let _ = writeln!(
         md,
         "Run options: `{}`\n",
         option_words(&sweep.spec.run_options).join(" ")
     );
+}
+
+/// Coverage and PSNR per planner at the same simulated times (up to the shortest episode),
+/// so planners compare at equal mapping time as well as at their ends.
+fn write_equal_times(md: &mut String, names: &[&str], complete: &[&Row]) {
+    let Some(horizon) = complete
+        .iter()
+        .filter_map(|r| r.coverage_over_time.last().map(|p| p[0]))
+        .min_by(f64::total_cmp)
+    else {
+        return;
+    };
+    // Four instants on the measurement grid (every 10 s), the last at the horizon's.
+    let grid = (horizon / 10.0).floor();
+    if grid < 1.0 {
+        return;
+    }
+    let mut instants: Vec<f64> = (1..=4)
+        .map(|k| 10.0 * (grid * f64::from(k) / 4.0).round())
+        .filter(|t| *t > 0.0)
+        .collect();
+    instants.dedup();
+    let at = |series: &[[f64; 2]], t: f64| {
+        series
+            .iter()
+            .find(|p| (p[0] - t).abs() <= 0.5)
+            .map(|p| p[1])
+    };
+    md.push_str("\n## At equal times\n\nMeans over the complete episodes at the same simulated seconds (coverage of the hidden surface; PSNR on a fixed subsample of the hidden views, so it differs from the final PSNR on all of them).\n\n| planner |");
+    for t in &instants {
+        let _ = write!(md, " coverage % at {t:.0} s | PSNR dB at {t:.0} s |");
+    }
+    md.push_str("\n|---|");
+    md.push_str(&"---:|---:|".repeat(instants.len()));
+    md.push('\n');
+    for p in names {
+        let group = of_planner(complete, p);
+        if group.is_empty() {
+            continue;
+        }
+        let _ = write!(md, "| {p} |");
+        for &t in &instants {
+            for (series, scale) in [(0, 100.0), (1, 1.0)] {
+                let values: Vec<f64> = group
+                    .iter()
+                    .filter_map(|r| {
+                        let s = if series == 0 {
+                            &r.coverage_over_time
+                        } else {
+                            &r.psnr_over_time
+                        };
+                        at(s, t)
+                    })
+                    .collect();
+                match spread(&values) {
+                    Some(s) => {
+                        let _ = write!(md, " {} |", show(scale * s.mean));
+                    }
+                    None => md.push_str(" |"),
+                }
+            }
+        }
+        md.push('\n');
+    }
 }
 
 /// Each figure per planner: mean, sd, min and max.

@@ -100,19 +100,27 @@ impl Sweep {
         std::fs::create_dir_all(out).map_err(|e| SimError::io("cannot create", out, e))?;
         let out = absolute(out)?;
         let file = out.join(SWEEP_FILE);
+        // Settings are checked before sweep.json is written: a refused command must not
+        // leave a file that then refuses the corrected one as "other settings".
+        let sweep = Sweep::new(out.clone(), spec)?;
         if file.exists() {
             let earlier = read_spec(&file)?;
-            if let Some(detail) = first_difference(&earlier, &spec) {
+            if let Some(detail) = first_difference(&earlier, &sweep.spec) {
                 return Err(SimError::SweepChanged { path: file, detail });
             }
         } else {
             let stored = SweepSpec {
-                worlds: spec.worlds.iter().map(|w| relative_to(&out, w)).collect(),
-                ..spec.clone()
+                worlds: sweep
+                    .spec
+                    .worlds
+                    .iter()
+                    .map(|w| relative_to(&out, w))
+                    .collect(),
+                ..sweep.spec.clone()
             };
             crate::dataset::write_json(&file, &stored)?;
         }
-        Sweep::new(out, spec)
+        Ok(sweep)
     }
 
     /// The sweep already in `out` (for `sweep episode` and `sweep collect`).
@@ -267,9 +275,11 @@ impl Sweep {
             .iter()
             .filter(|e| e.planner == survey)
             .filter(|e| match self.state(e) {
-                EpisodeState::Complete { metrics } => {
-                    metrics["ended"].as_str() != Some(crate::survey::SURVEY_COMPLETE)
-                }
+                // A survey that ran on has `done_at` (null when its route was cut short).
+                EpisodeState::Complete { metrics } => match metrics.get("done_at") {
+                    Some(done_at) => done_at.is_null(),
+                    None => metrics["ended"].as_str() != Some(crate::survey::SURVEY_COMPLETE),
+                },
                 _ => false,
             })
             .collect()
@@ -292,18 +302,26 @@ impl Sweep {
     pub fn budget_of(&self, e: &Episode) -> Result<f64> {
         match self.spec.budget {
             Budget::Seconds(s) => Ok(s),
-            Budget::SurveyFactor { survey_budget, .. } if self.survey_of(e).is_none() => {
-                Ok(survey_budget)
-            }
+            Budget::SurveyFactor {
+                survey_budget,
+                factor,
+            } if self.survey_of(e).is_none() => Ok(if self.survey_runs_on() {
+                // It runs to `factor` x its route's time (`--done-factor`), within this.
+                factor * survey_budget
+            } else {
+                survey_budget
+            }),
             Budget::SurveyFactor { factor, .. } => {
                 let survey = self.survey_of(e).ok_or_else(|| SimError::SweepEpisode {
                     index: e.index,
                     detail: "no survey to set its budget".into(),
                 })?;
                 match self.state(survey) {
+                    // A survey that ran on after its route (`--done-factor` in its
+                    // episode.json) already took the factor; one that stopped did not.
                     EpisodeState::Complete { metrics } => metrics["simulated_seconds"]
                         .as_f64()
-                        .map(|t| factor * t)
+                        .map(|t| if self.ran_on(survey) { t } else { factor * t })
                         .ok_or_else(|| SimError::SweepEpisode {
                             index: e.index,
                             detail: format!(
@@ -357,8 +375,39 @@ impl Sweep {
             self.folder(e).display().to_string(),
             "--overwrite".into(),
         ];
-        args.extend(option_words(&self.spec.run_options));
+        let mut options = self.spec.run_options.clone();
+        if let (Some(factor), None) = (self.factor(), self.survey_of(e)) {
+            if self.survey_runs_on() {
+                args.extend(["--done-factor".into(), factor.to_string()]);
+            } else {
+                // A survey cannot end before its route does: with a factor under 1 (or the
+                // old protocol) it stops there.
+                options.insert("stop_when_done".into(), Value::Bool(true));
+            }
+        }
+        args.extend(option_words(&options));
         Ok(args)
+    }
+
+    /// Whether the surveys of a survey-factor sweep run on to the factor times their
+    /// route's time (a factor of 1 or more, and not `--stop-when-done`).
+    fn survey_runs_on(&self) -> bool {
+        self.factor().is_some_and(|f| f >= 1.0) && !self.stop_when_done()
+    }
+
+    /// Whether a survey episode ran on after its route (`--done-factor` in its episode.json),
+    /// so its simulated time is already the planners' budget.
+    fn ran_on(&self, survey: &Episode) -> bool {
+        std::fs::read(self.folder(survey).join("episode.json"))
+            .ok()
+            .and_then(|bytes| serde_json::from_slice::<Value>(&bytes).ok())
+            .is_some_and(|episode| episode["config"]["done_factor"].is_number())
+    }
+
+    /// Whether the sweep's episodes end when their planner is done (`--stop-when-done`, the
+    /// old protocol) rather than at their budget.
+    pub fn stop_when_done(&self) -> bool {
+        self.spec.run_options.get("stop_when_done") == Some(&Value::Bool(true))
     }
 }
 
@@ -380,11 +429,21 @@ pub fn option_words(options: &Map<String, Value>) -> Vec<String> {
     words
 }
 
-/// Seeds from `1,2,5`, `1..4` (inclusive, as in a shell's `{1..4}`) or a mix (`1..3,7`).
+/// The most seeds one sweep takes: each is an episode per world and planner, listed in
+/// sweep.json and results.csv.
+pub const MAX_SEEDS: usize = 10_000;
+
+/// Seeds from `1,2,5`, `1..4` (inclusive, as in a shell's `{1..4}`) or a mix (`1..3,7`), at
+/// most [`MAX_SEEDS`].
 pub fn parse_seeds(text: &str) -> Result<Vec<u64>> {
     let invalid = |detail: String| SimError::InvalidArgument {
         what: "--seeds",
         detail,
+    };
+    let too_many = || {
+        invalid(format!(
+            "{text} is more than {MAX_SEEDS} seeds; split the sweep into several (each its own --out)"
+        ))
     };
     let number = |s: &str| {
         s.trim().parse::<u64>().map_err(|e| {
@@ -400,9 +459,15 @@ pub fn parse_seeds(text: &str) -> Result<Vec<u64>> {
             if b < a {
                 return Err(invalid(format!("the range {part} runs backwards")));
             }
+            if b - a >= MAX_SEEDS as u64 - seeds.len() as u64 {
+                return Err(too_many());
+            }
             seeds.extend(a..=b);
         } else {
             seeds.push(number(part)?);
+        }
+        if seeds.len() > MAX_SEEDS {
+            return Err(too_many());
         }
     }
     if seeds.is_empty() {

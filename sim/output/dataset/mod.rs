@@ -2,6 +2,7 @@
 //! episode.json. Written while an episode runs and read back for evaluation and tests.
 
 mod images;
+mod place;
 mod reader;
 mod writer;
 
@@ -134,6 +135,43 @@ pub fn refuse_overwrite(out: &Path, overwrite: bool, inputs: &[&Path]) -> Result
                 what: "output",
                 detail: format!("{} exists; pass --overwrite to replace it", out.display()),
             });
+        }
+    }
+    Ok(())
+}
+
+/// Where a run into `out` keeps its frames until the episode is complete (to tell a user
+/// whose run failed where its work is).
+pub fn staging_folder(out: &Path) -> Option<std::path::PathBuf> {
+    place::Places::resolve(out).ok().map(|p| p.staging)
+}
+
+/// Refuses two outputs of one command that name the same file (`--out X --surface-out X`):
+/// the second would silently replace the first.
+pub fn refuse_same_outputs(outputs: &[(&'static str, &Path)]) -> Result<()> {
+    // Compared as the OS would resolve them: the parent's real path and the name.
+    let resolved = |p: &Path| -> Option<std::path::PathBuf> {
+        let parent = p
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        Some(std::fs::canonicalize(parent).ok()?.join(p.file_name()?))
+    };
+    for (i, (first, a)) in outputs.iter().enumerate() {
+        for (second, b) in &outputs[i + 1..] {
+            let same = match (resolved(a), resolved(b)) {
+                (Some(x), Some(y)) => x == y,
+                _ => a == b,
+            };
+            if same {
+                return Err(SimError::InvalidArgument {
+                    what: "output",
+                    detail: format!(
+                        "{first} and {second} both name {}; give each its own file",
+                        a.display()
+                    ),
+                });
+            }
         }
     }
     Ok(())

@@ -136,6 +136,15 @@ fn read_list(path: &Path, fields: usize) -> Result<Vec<(f64, Vec<String>)>> {
             detail: format!("line {}: expected a timestamp and {fields} fields", n + 1),
         };
         let time = parts.next().and_then(|t| t.parse::<f64>().ok());
+        if let Some(time) = time.filter(|t| !t.is_finite()) {
+            return Err(SimError::BadDataset {
+                path: path.to_owned(),
+                detail: format!(
+                    "line {}: the timestamp {time} is not a number of seconds",
+                    n + 1
+                ),
+            });
+        }
         let rest: Vec<String> = parts.map(str::to_owned).collect();
         let Some(time) = time.filter(|_| rest.len() == fields) else {
             if torn {

@@ -6,10 +6,18 @@
 //!   flushed after its frame's images, so the counts always agree, and camera.json is written
 //!   with the first frame;
 //! - `--overwrite` replaces only what an earlier splatloop run wrote (the manifest in its
-//!   episode.json) and refuses, naming them, when the folder holds anything else;
+//!   episode.json) and refuses, naming them, when the folder holds anything else; `finish`
+//!   checks again, since a user may add files while the episode runs, and then writes the new
+//!   episode beside the target instead (and says so, as an error);
+//! - an interrupted episode never replaces a complete one: it is written beside it;
+//! - a staging folder with no frame in it is removed when the writer is dropped unfinished;
 //! - a lock file beside the target (`.NAME.lock`, an OS lock the kernel drops when the process
 //!   dies) refuses a second run into the same folder.
+//!
+//! Where these files live, mount points and the recovery of a run that died in `finish`:
+//! `place`.
 
+use super::place::{files_under, Places};
 use super::{write_depth_png, write_rgb_png, CameraFile, DEPTH_SCALE};
 use crate::camera::RgbdFrame;
 use crate::error::{Result, SimError};
@@ -27,8 +35,12 @@ const TRANSFORMS_TAIL: &str = "\n  ]\n}\n";
 pub struct DatasetWriter {
     /// The staging folder everything is written into.
     dir: PathBuf,
-    /// The folder the episode is for.
-    target: PathBuf,
+    /// Where the episode goes and what surrounds it.
+    places: Places,
+    /// Whether the run may replace an earlier episode.
+    overwrite: bool,
+    /// `finish` ran (else the drop clears a staging folder without frames).
+    finished: bool,
     /// Held for the writer's life; the OS releases it if the process dies.
     _lock: FolderLock,
     rgb_txt: BufWriter<File>,
@@ -90,84 +102,6 @@ impl Drop for FolderLock {
     }
 }
 
-/// Where `target`'s sibling called `.NAME.suffix` is.
-fn sibling(target: &Path, suffix: &str) -> PathBuf {
-    let name = target
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "episode".into());
-    let parent = target
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    parent.join(format!(".{name}.{suffix}"))
-}
-
-/// Every file under `dir`, relative to it, sorted.
-fn files_under(dir: &Path) -> Result<Vec<String>> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for entry in fs::read_dir(&d).map_err(|e| SimError::io("cannot read", &d, e))? {
-            let entry = entry.map_err(|e| SimError::io("cannot read", &d, e))?;
-            let path = entry.path();
-            if path.is_dir() {
-                stack.push(path);
-            } else if let Ok(relative) = path.strip_prefix(dir) {
-                out.push(relative.to_string_lossy().replace('\\', "/"));
-            }
-        }
-    }
-    out.sort();
-    Ok(out)
-}
-
-/// Checks that `dir` may be replaced: empty, or holding only what the manifest of its
-/// episode.json lists (and `overwrite` is set).
-fn check_replaceable(dir: &Path, overwrite: bool) -> Result<()> {
-    let present = files_under(dir)?;
-    if present.is_empty() {
-        return Ok(());
-    }
-    let refuse = |detail: String| {
-        Err(SimError::InvalidArgument {
-            what: "output folder",
-            detail,
-        })
-    };
-    if !overwrite {
-        return refuse(format!("{} is not empty; choose a new --out, or pass --overwrite to replace an earlier episode", dir.display()));
-    }
-    let manifest: Option<Vec<String>> = fs::read_to_string(dir.join("episode.json"))
-        .ok()
-        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-        .and_then(|v| {
-            v.get("files")
-                .and_then(|f| serde_json::from_value(f.clone()).ok())
-        });
-    let Some(manifest) = manifest else {
-        return refuse(format!(
-            "{} holds files but no splatloop manifest (episode.json with a file list), so --overwrite leaves it alone",
-            dir.display()
-        ));
-    };
-    let foreign: Vec<&String> = present.iter().filter(|f| !manifest.contains(f)).collect();
-    if !foreign.is_empty() {
-        let names: Vec<&str> = foreign.iter().take(5).map(|s| s.as_str()).collect();
-        let more = if foreign.len() > 5 {
-            format!(" and {} more", foreign.len() - 5)
-        } else {
-            String::new()
-        };
-        return refuse(format!(
-            "{} holds files splatloop did not write ({}{more}); --overwrite replaces only an episode's own files, so move them first",
-            dir.display(),
-            names.join(", ")
-        ));
-    }
-    Ok(())
-}
-
 impl DatasetWriter {
     /// Starts an episode for `dir`: takes the lock, checks that an existing folder may be
     /// replaced (see the module), and opens the staging folder.
@@ -175,7 +109,8 @@ impl DatasetWriter {
         if let Some(parent) = dir.parent().filter(|p| !p.as_os_str().is_empty()) {
             fs::create_dir_all(parent).map_err(|e| SimError::io("cannot create", parent, e))?;
         }
-        let lock_path = sibling(dir, "lock");
+        let places = Places::resolve(dir)?;
+        let lock_path = places.lock.clone();
         let lock =
             File::create(&lock_path).map_err(|e| SimError::io("cannot create", &lock_path, e))?;
         if let Err(e) = lock.try_lock() {
@@ -203,17 +138,16 @@ impl DatasetWriter {
                 });
             }
         }
-        if dir.exists() {
-            if !dir.is_dir() {
-                return Err(SimError::InvalidArgument {
-                    what: "output folder",
-                    detail: format!("{} is a file", dir.display()),
-                });
-            }
-            check_replaceable(dir, overwrite)?;
+        let lock = FolderLock {
+            file: lock,
+            path: lock_path,
+        };
+        for done in places.recover()? {
+            tracing::warn!("{done}");
         }
+        places.check_target(overwrite)?;
         // A staging folder left by a run that was killed: ours to clear, since we hold the lock.
-        let staging = sibling(dir, "partial");
+        let staging = places.staging.clone();
         if staging.exists() {
             fs::remove_dir_all(&staging).map_err(|e| SimError::io("cannot remove", &staging, e))?;
         }
@@ -240,8 +174,10 @@ impl DatasetWriter {
                 "# ground truth trajectory (camera-to-world, OpenCV optical frame)\n# file: splatloop\n# timestamp tx ty tz qx qy qz qw\n",
             )?,
             dir: staging,
-            target: dir.to_owned(),
-            _lock: FolderLock { file: lock, path: lock_path },
+            places,
+            overwrite,
+            finished: false,
+            _lock: lock,
             transforms: None,
             transforms_end: 0,
             camera: None,
@@ -279,9 +215,9 @@ impl DatasetWriter {
         &self.dir
     }
 
-    /// The folder the episode ends up in.
+    /// The folder the episode ends up in (absolute).
     pub fn target(&self) -> &Path {
-        &self.target
+        &self.places.target
     }
 
     /// Frames written so far.
@@ -411,8 +347,12 @@ impl DatasetWriter {
 
     /// Writes `episode.json` (whatever the caller records: config, seed, versions, plus the
     /// manifest of every file of the episode) and puts the episode in its folder: the earlier
-    /// one there is moved aside, the new one renamed into place, the old one deleted.
-    pub fn finish(self, episode: &impl Serialize) -> Result<PathBuf> {
+    /// one there is moved aside, the new one moved into place, the old one deleted. An
+    /// `interrupted` episode does not replace a complete one: it is kept beside it, with a
+    /// warning. When the target gained files splatloop did not write while the episode ran (or
+    /// appeared without `--overwrite`), the episode is kept beside it and the error says where.
+    /// Returns where the episode is.
+    pub fn finish(mut self, episode: &impl Serialize, interrupted: bool) -> Result<PathBuf> {
         let episode_path = self.dir.join("episode.json");
         self.check_fault(&episode_path)?;
         let mut record = serde_json::to_value(episode).map_err(|e| {
@@ -426,20 +366,37 @@ impl DatasetWriter {
             map.insert("files".into(), serde_json::json!(files));
         }
         write_json(&episode_path, &record)?;
-        let aside = sibling(&self.target, "old");
-        if aside.exists() {
-            fs::remove_dir_all(&aside).map_err(|e| SimError::io("cannot remove", &aside, e))?;
+        self.finished = true;
+        let places = &self.places;
+        if interrupted && places.target_complete() {
+            let beside = places.keep_beside("interrupted")?;
+            tracing::warn!(
+                "the episode was interrupted, so it did not replace the complete one in {}: it is in {}",
+                places.target.display(),
+                beside.display()
+            );
+            return Ok(beside);
         }
-        if self.target.exists() {
-            fs::rename(&self.target, &aside)
-                .map_err(|e| SimError::io("cannot move aside", &self.target, e))?;
+        if let Err(refused) = places.check_target(self.overwrite) {
+            let beside = places.keep_beside("new")?;
+            return Err(SimError::WrittenBeside {
+                path: beside,
+                reason: Box::new(refused),
+            });
         }
-        fs::rename(&self.dir, &self.target)
-            .map_err(|e| SimError::io("cannot write", &self.target, e))?;
-        if aside.exists() {
-            fs::remove_dir_all(&aside).map_err(|e| SimError::io("cannot remove", &aside, e))?;
+        places.swap_in()?;
+        Ok(places.target.clone())
+    }
+}
+
+impl Drop for DatasetWriter {
+    /// A writer dropped before `finish` (the episode failed to start or to run) leaves its
+    /// staging folder for the next run to clear only when it holds frames; an empty one is
+    /// removed now.
+    fn drop(&mut self) {
+        if !self.finished && self.frames == 0 {
+            let _ = fs::remove_dir_all(&self.dir);
         }
-        Ok(self.target.clone())
     }
 }
 

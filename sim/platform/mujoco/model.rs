@@ -183,6 +183,15 @@ impl Model {
     /// Compiles an MJCF file; MuJoCo's own message comes back in the error.
     pub fn from_xml(path: &Path) -> Result<Self> {
         super::install_log_hooks();
+        if path.is_dir() {
+            return Err(SimError::InvalidArgument {
+                what: "world",
+                detail: format!(
+                    "{} is a folder; give the world's MJCF file (e.g. worlds/room.xml)",
+                    path.display()
+                ),
+            });
+        }
         if !path.is_file() {
             return Err(SimError::MissingFile {
                 what: "MJCF model",

@@ -87,7 +87,7 @@ fn bad_scene(path: &Path, detail: String) -> SimError {
 
 /// Imports a scene; see the module documentation.
 pub fn import_scene(config: &ImportConfig) -> Result<ImportSummary> {
-    let (scene_dir, models, materials) = read_scene(config)?;
+    let (scene_dir, models, materials, inputs) = read_scene(config)?;
     let (mut pieces, mut lo, mut hi, triangles) = world_triangles(config, &models)?;
     let floor = match config.floor {
         Some(z) if z.is_finite() => z,
@@ -114,6 +114,7 @@ pub fn import_scene(config: &ImportConfig) -> Result<ImportSummary> {
         &scene_dir,
         &colliders,
         (lo, hi),
+        &inputs,
     )?;
     Ok(ImportSummary {
         out: config.out.clone(),
@@ -132,9 +133,12 @@ pub fn import_scene(config: &ImportConfig) -> Result<ImportSummary> {
     })
 }
 
-/// Checks the arguments and reads the OBJ, its MTL and its textures' names: the scene's
-/// folder, its models and its materials.
-fn read_scene(config: &ImportConfig) -> Result<(PathBuf, Vec<tobj::Model>, Vec<tobj::Material>)> {
+/// What `read_scene` gives: the scene's folder, its models, its materials, and every file it
+/// read (the OBJ, its MTLs, their textures), which no output may replace.
+type SceneFiles = (PathBuf, Vec<tobj::Model>, Vec<tobj::Material>, Vec<PathBuf>);
+
+/// Checks the arguments and reads the OBJ, its MTL and its textures' names.
+fn read_scene(config: &ImportConfig) -> Result<SceneFiles> {
     if !(config.scale.is_finite() && config.scale > 0.0) {
         return Err(SimError::InvalidArgument {
             what: "scale",
@@ -188,8 +192,20 @@ fn read_scene(config: &ImportConfig) -> Result<(PathBuf, Vec<tobj::Model>, Vec<t
             }
         }
     }
-
-    Ok((scene_dir, models, materials))
+    let mut inputs = vec![config.scene.clone()];
+    inputs.extend(text.lines().filter_map(|line| {
+        let name = line.trim().strip_prefix("mtllib")?.trim();
+        (!name.is_empty()).then(|| scene_dir.join(name))
+    }));
+    inputs.extend(
+        materials
+            .iter()
+            .filter_map(|m| m.diffuse_texture.as_ref())
+            .map(|file| scene_dir.join(file.trim())),
+    );
+    let borrowed: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    crate::dataset::refuse_overwrite(&config.out, config.overwrite, &borrowed)?;
+    Ok((scene_dir, models, materials, inputs))
 }
 
 /// The models' triangles in the world frame (Z up, metres), degenerate ones dropped, with
@@ -291,6 +307,7 @@ fn write_world(
     scene_dir: &Path,
     colliders: &[Cuboid],
     (lo, hi): ([f64; 3], [f64; 3]),
+    inputs: &[PathBuf],
 ) -> Result<Pose2> {
     let stem = config
         .out
@@ -305,7 +322,8 @@ fn write_world(
     std::fs::create_dir_all(&folder).map_err(|e| SimError::io("cannot create", &folder, e))?;
     let assets_name = format!("{stem}_assets");
     let assets = folder.join(&assets_name);
-    crate::dataset::refuse_overwrite(&assets, config.overwrite, &[&config.scene])?;
+    let borrowed: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
+    crate::dataset::refuse_overwrite(&assets, config.overwrite, &borrowed)?;
     let staging_name = format!(".{stem}_assets.partial");
     let staging = folder.join(&staging_name);
     let candidate = folder.join(format!(".{stem}.candidate.xml"));
@@ -337,6 +355,9 @@ fn write_world(
             None => roomiest_pose(&world, [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1])])?,
         };
         let spawn = place_robot(&mut world, Spawn::Pose(spawn), 0)?;
+        if config.spawn.is_some() {
+            refuse_bad_spawn(&mut world, spawn)?;
+        }
         std::fs::write(&candidate, world_text(&assets_name, Some(spawn)))
             .map_err(|e| SimError::io("cannot write", &candidate, e))?;
         if assets.exists() {
@@ -352,6 +373,35 @@ fn write_world(
         clean();
     }
     result
+}
+
+/// Refuses a spawn given with `--spawn` that `world check` would reject (off the scene, no
+/// floor under it, no room, or the robot able to drive off the edge): the world written must
+/// pass the check that users run on it.
+fn refuse_bad_spawn(world: &mut World, spawn: Pose2) -> Result<()> {
+    world.set_start(spawn);
+    let (report, _) = crate::world_check::check_world(world)?;
+    let about_spawn: Vec<&String> = report
+        .problems
+        .iter()
+        .filter(|p| {
+            p.starts_with("the spawn")
+                || p.starts_with("the world is not closed")
+                || p.starts_with("no floor")
+        })
+        .collect();
+    if about_spawn.is_empty() {
+        return Ok(());
+    }
+    Err(SimError::InvalidArgument {
+        what: "spawn",
+        detail: format!(
+            "({:.2}, {:.2}): {}; give a pose inside the scene on its floor, or leave --spawn out to let the import choose the roomiest one",
+            spawn.x,
+            spawn.y,
+            about_spawn.iter().map(|p| p.as_str()).collect::<Vec<_>>().join("; ")
+        ),
+    })
 }
 
 /// The triangles of one object in one material.

@@ -21,6 +21,13 @@ use std::path::{Component, Path, PathBuf};
 /// Centre-line area per m2 of floor wanted: the outer walls' half thickness is added back.
 const AREA_INFLATION: f64 = 1.03;
 
+/// How close an asked floor area is made: within this share of it (the kind's range bounds
+/// only drawn areas).
+const AREA_TOLERANCE: f64 = 0.02;
+
+/// Rescalings of one candidate toward an asked area.
+const AREA_STEPS: usize = 4;
+
 /// Candidates tried before giving up on a seed.
 const MAX_CANDIDATES: u32 = 64;
 
@@ -133,7 +140,12 @@ pub fn generate(
             return Err(SimError::InvalidArgument {
                 what: "area",
                 detail: format!(
-                    "{a} m2; a {} is generated between {lo} and {hi} m2",
+                    "{a} m2; {} {} is generated between {lo} and {hi} m2",
+                    if config.kind.name().starts_with(['a', 'e', 'i', 'o', 'u']) {
+                        "an"
+                    } else {
+                        "a"
+                    },
                     config.kind.name()
                 ),
             });
@@ -158,16 +170,41 @@ pub fn generate(
         let area = config
             .area
             .unwrap_or_else(|| rand::Rng::gen_range(&mut rng, lo..=hi));
+        let drawn = rng.clone();
         // The kinds lay out centre lines; the floor inside the walls is a little smaller.
-        let Some(layout) = config.kind.layout(area * AREA_INFLATION, &mut rng) else {
+        let Some(mut layout) = config.kind.layout(area * AREA_INFLATION, &mut rng) else {
             on_reject(sub_seed, "the rooms and doors did not fit");
             continue;
         };
+        if let Some(asked) = config.area {
+            // The inflation is a mean over layouts: steer this candidate onto the asked floor
+            // (the same draws, a rescaled target), so an area at the range's edge is made.
+            let mut target = area * AREA_INFLATION;
+            for _ in 0..AREA_STEPS {
+                let floor = layout.floor_area();
+                if (floor - asked).abs() <= 0.25 * AREA_TOLERANCE * asked {
+                    break;
+                }
+                target *= asked / floor;
+                match config.kind.layout(target, &mut drawn.clone()) {
+                    Some(closer) => layout = closer,
+                    None => break,
+                }
+            }
+        }
         let floor = layout.floor_area();
-        if !(lo..=hi).contains(&floor) {
+        let fits = match config.area {
+            Some(asked) => (floor - asked).abs() <= AREA_TOLERANCE * asked,
+            None => (lo..=hi).contains(&floor),
+        };
+        if !fits {
+            let wanted = match config.area {
+                Some(asked) => format!("{:.0}% of the asked {asked} m2", 100.0 * AREA_TOLERANCE),
+                None => format!("{lo}-{hi} m2"),
+            };
             on_reject(
                 sub_seed,
-                &format!("its floor of {floor:.1} m2 is outside {lo}-{hi} m2"),
+                &format!("its floor of {floor:.1} m2 is not within {wanted}"),
             );
             continue;
         }

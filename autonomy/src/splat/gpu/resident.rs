@@ -144,6 +144,11 @@ fn unpack(records: &[f32], g: &mut Gaussians) {
 }
 
 impl ResidentMap {
+    /// Adam's rates from the next [`ResidentMap::load`] on.
+    pub fn set_rates(&mut self, rates: LearningRates) {
+        self.rates = rates;
+    }
+
     /// An empty resident map on `engine`'s device, fitted with Adam at `rates`.
     pub fn new(engine: &GpuRasteriser, rates: LearningRates) -> Self {
         let gpu = &engine.gpu;
