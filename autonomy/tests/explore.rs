@@ -457,6 +457,7 @@ fn closed_loop(planner: &mut dyn Planner, scene: &BoxScene, start: Pose2, plans:
                     run.ended = Some(reason);
                     break;
                 }
+                Decision::Abort(reason) => panic!("FBE never aborts: {reason}"),
             };
         // One second of the schedule, with 5 frames along it for the grid.
         let mut left = 1.0;

@@ -131,6 +131,7 @@ pub fn decision_to_py(py: Python<'_>, decision: Decision) -> PyResult<PyObject> 
         Decision::Go(plan) => Py::new(py, Plan { plan })?.into_any(),
         Decision::Fail(failure) => Py::new(py, PlanFailure { failure })?.into_any(),
         Decision::Done(reason) => reason.into_pyobject(py)?.into_any().unbind(),
+        Decision::Abort(reason) => return Err(PyRuntimeError::new_err(reason)),
     })
 }
 
@@ -358,7 +359,7 @@ impl PythonPlanner {
     fn fail(&self, e: PyErr) -> Decision {
         let reason = format!("the Python planner raised: {e}");
         *self.error.borrow_mut() = Some(e);
-        Decision::Done(reason)
+        Decision::Abort(reason)
     }
 }
 
@@ -394,7 +395,7 @@ impl Planner for PythonPlanner {
 
     fn plan(&mut self, map: &GaussianMap, start: Pose2) -> Decision {
         if let Some(e) = self.error.borrow().as_ref() {
-            return Decision::Done(format!("the Python planner raised: {e}"));
+            return Decision::Abort(format!("the Python planner raised: {e}"));
         }
         Python::with_gil(|py| match self.decide(py, map, start) {
             Ok(decision) => decision,

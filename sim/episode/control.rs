@@ -57,8 +57,10 @@ pub struct ThinkTime {
 pub enum Verdict {
     /// Keep going.
     Continue,
-    /// End the episode, saying why.
+    /// The planner is done, saying why (the episode goes on idle, or ends).
     End(String),
+    /// End the episode now, saying why.
+    Abort(String),
 }
 
 impl Controller {
@@ -193,7 +195,7 @@ impl Controller {
             }
             Latency::None => (time, false),
         };
-        if late && !matches!(decision, Some(Decision::Done(_))) {
+        if late && !matches!(decision, Some(Decision::Done(_) | Decision::Abort(_))) {
             self.late_plans += 1;
             tracing::debug!(
                 "t = {time:.1} s: the think took {delay:.2} s, planned for {lead:.2} s \
@@ -205,6 +207,7 @@ impl Controller {
         // `None` inside: the watch's "no progress" rather than a planner failure.
         let failure: Option<Option<PlanFailure>> = match decision {
             Some(Decision::Done(reason)) => return Verdict::End(reason),
+            Some(Decision::Abort(reason)) => return Verdict::Abort(reason),
             Some(Decision::Go(plan)) => {
                 debug_assert!(plan.commands.iter().all(|u| self.limits.admits(*u)));
                 self.pending = Some((Schedule::from_plan(&plan, start), start_pose));
@@ -244,7 +247,8 @@ impl Controller {
         match self.stuck.update(time, pose, recovered) {
             Some(reason) => {
                 tracing::warn!("t = {time:.1} s: {reason}");
-                Verdict::End(reason)
+                // Stuck is the host's verdict, not the planner's: the episode ends.
+                Verdict::Abort(reason)
             }
             None => Verdict::Continue,
         }

@@ -618,8 +618,10 @@ impl Episode {
         })?;
         let think = decision.clone().map_or(Think::Overruled, Think::Planned);
         let spent = ThinkTime { mapping, planning };
-        if let Verdict::End(reason) = self.control.take(decision, time, pose, start, spent, lead) {
-            self.planner_done(time, reason);
+        match self.control.take(decision, time, pose, start, spent, lead) {
+            Verdict::End(reason) => self.planner_done(time, reason),
+            Verdict::Abort(reason) => self.ended = Some(reason),
+            Verdict::Continue => {}
         }
         Ok(think)
     }

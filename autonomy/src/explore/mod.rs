@@ -82,8 +82,13 @@ pub enum Decision {
     Go(Plan),
     /// No plan: the host runs the failure's recovery and asks again.
     Fail(PlanFailure),
-    /// Nothing is left to do (no frontier, the survey complete): the episode ends, saying why.
+    /// Nothing is left to do (no frontier, the survey complete): the robot holds still while
+    /// the mapper goes on to the episode's budget (or the episode ends, with the host's
+    /// `--stop-when-done`), saying why.
     Done(String),
+    /// The planner cannot go on (an error in a planner from outside, e.g. a Python exception):
+    /// the episode ends now, saying why.
+    Abort(String),
 }
 
 /// Why no plan came back, and what the host can do about it.

@@ -703,7 +703,7 @@ pub fn bench_planners(counts: &[usize], agslam_candidates: usize) -> Vec<Planner
             let (candidates, outcome) = match last {
                 Some(Decision::Go(p)) => (p.candidates, "go".to_owned()),
                 Some(Decision::Fail(f)) => (0, f.kind().to_owned()),
-                Some(Decision::Done(reason)) => (0, reason),
+                Some(Decision::Done(reason) | Decision::Abort(reason)) => (0, reason),
                 None => (0, String::new()),
             };
             rows.push(PlannersBenchRow {
