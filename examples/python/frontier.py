@@ -3,7 +3,8 @@
 It keeps its own 2D grid from the depth frames (free along each ray, occupied where a return
 lands between ankle and head height), finds the frontier cells (known free beside unknown),
 and drives toward the nearest one it can reach through free space, one think period at a time.
-When no frontier is reachable it says so and the episode ends.
+When no frontier is reachable it says so: the robot then idles while the mapper goes on to
+the budget (or the episode ends there, with `stop_when_done=True`).
 
 Run it on its own:
 

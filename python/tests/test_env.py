@@ -224,5 +224,12 @@ def test_a_python_planners_bad_plan_ends_the_episode_and_is_raised(tmp_path):
         def plan(self, observation, map):
             return "nothing to see"
 
+    # Done: the robot idles while the mapper goes on to the budget (the same mapping time for
+    # every planner), or the episode ends there with stop_when_done.
     metrics = splatloop.run(Done(), out=str(tmp_path / "done"), **{**SMALL, "budget": 3})
+    assert metrics["ended"] == "budget (planner done at t = 0.0 s: nothing to see)"
+    assert metrics["done_at"] == 0.0 and metrics["mapping_steps"] == 3
+    metrics = splatloop.run(
+        Done(), out=str(tmp_path / "stopped"), stop_when_done=True, **{**SMALL, "budget": 3}
+    )
     assert metrics["ended"] == "nothing to see"
