@@ -329,3 +329,51 @@ fn a_60_s_rtguide_episode_in_a_generated_world_of_each_kind_has_no_collisions() 
         );
     }
 }
+
+/// What decides an episode's numbers is in its episode.json: the renderer (EGL device, GL
+/// vendor, renderer and version), the build's CPU features, the CPU, the engine's threads,
+/// the splat engine, MuJoCo's version.
+#[test]
+fn episode_json_records_what_decides_its_numbers() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("ep");
+    let mut run = config("worlds/room.xml", PlannerKind::RtGuide, 2.0, out.clone());
+    run.test_views = 0;
+    run_episode(&run, &mut |_| {}).expect("episode");
+    let episode: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("episode.json")).expect("episode.json"))
+            .expect("json");
+    let versions = &episode["versions"];
+    let renderer = versions["renderer"].as_str().expect("renderer");
+    assert_eq!(
+        renderer.matches(" / ").count(),
+        2,
+        "vendor / renderer / version: {renderer}"
+    );
+    let features: Vec<&str> = versions["target_features"]
+        .as_array()
+        .expect("features")
+        .iter()
+        .filter_map(|f| f.as_str())
+        .collect();
+    assert_eq!(
+        features.contains(&"avx2"),
+        cfg!(target_feature = "avx2"),
+        "{features:?}"
+    );
+    assert_eq!(
+        features.contains(&"fma"),
+        cfg!(target_feature = "fma"),
+        "{features:?}"
+    );
+    assert_eq!(
+        versions["threads"].as_u64(),
+        Some(rayon::current_num_threads() as u64)
+    );
+    assert!(versions["splat_engine"]
+        .as_str()
+        .expect("engine")
+        .starts_with("cpu ("));
+    assert!(!versions["cpu"].as_str().expect("cpu").is_empty());
+    assert!(!versions["mujoco"].as_str().expect("mujoco").is_empty());
+}

@@ -68,7 +68,7 @@ impl Episode {
             &EpisodeFile {
                 command: "run",
                 config: &self.config,
-                versions: Versions::current(&self.gl),
+                versions: Versions::current(&self.gl).with_engine(&self.engine_name),
                 start_pose: self.start_pose,
                 final_pose,
                 planner_settings: self.planner_settings,

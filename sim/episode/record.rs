@@ -81,18 +81,67 @@ pub struct Versions {
     pub splatloop: &'static str,
     /// libmujoco.
     pub mujoco: String,
-    /// The EGL device and GL renderer.
+    /// The EGL device and the GL vendor, renderer and version: the camera's images come from
+    /// it, and another renderer changes a trajectory (README, "Reproducing a run").
     pub renderer: String,
+    /// The CPU features the binary was built for (x86-64-v3's AVX2 and FMA, or a native
+    /// build's AVX-512): they decide the SIMD paths.
+    pub target_features: Vec<&'static str>,
+    /// The CPU it ran on (/proc/cpuinfo's model name).
+    pub cpu: String,
+    /// Threads of the CPU engine's pool.
+    pub threads: usize,
+    /// The splat engine and, for the GPU, its adapter (runs; none for a recorded drive).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub splat_engine: Option<String>,
+}
+
+/// The CPU features a build may have been compiled with that change its arithmetic paths.
+fn target_features() -> Vec<&'static str> {
+    let mut on = Vec::new();
+    macro_rules! feature {
+        ($($name:tt),*) => {$(
+            if cfg!(target_feature = $name) {
+                on.push($name);
+            }
+        )*};
+    }
+    feature!("sse4.2", "avx", "avx2", "fma", "bmi2", "avx512f", "avx512bw", "avx512vl", "neon");
+    on
+}
+
+/// /proc/cpuinfo's first model name, or "unknown".
+fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|info| {
+            info.lines().find_map(|l| {
+                l.strip_prefix("model name")?
+                    .split_once(':')
+                    .map(|(_, m)| m.trim().to_owned())
+            })
+        })
+        .unwrap_or_else(|| "unknown".into())
 }
 
 impl Versions {
-    /// Collects the versions in use.
+    /// Collects the versions in use: what decides an episode's numbers.
     pub fn current(gl: &EglContext) -> Self {
         Versions {
             splatloop: env!("CARGO_PKG_VERSION"),
             mujoco: crate::mujoco::version(),
             renderer: gl.description().to_owned(),
+            target_features: target_features(),
+            cpu: cpu_model(),
+            threads: rayon::current_num_threads(),
+            splat_engine: None,
         }
+    }
+
+    /// With the splat engine an episode used.
+    pub fn with_engine(mut self, engine: &str) -> Self {
+        self.splat_engine = Some(engine.to_owned());
+        self
     }
 }
 

@@ -112,6 +112,7 @@ type GetGlString = unsafe extern "C" fn(u32) -> *const u8;
 
 const GL_VENDOR: u32 = 0x1F00;
 const GL_RENDERER: u32 = 0x1F01;
+const GL_VERSION: u32 = 0x1F02;
 
 impl EglContext {
     /// Makes a context with the platform order of [`EglPlatform::from_env`].
@@ -318,7 +319,12 @@ fn gl_renderer() -> String {
                 .into_owned()
         }
     };
-    format!("{} / {}", read(GL_VENDOR), read(GL_RENDERER))
+    format!(
+        "{} / {} / {}",
+        read(GL_VENDOR),
+        read(GL_RENDERER),
+        read(GL_VERSION)
+    )
 }
 
 fn egl_error() -> String {
