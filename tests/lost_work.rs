@@ -608,9 +608,9 @@ fn exported_room(dir: &Path) -> PathBuf {
     obj
 }
 
-/// D13 and D14
+/// D13
 #[test]
-fn import_never_writes_over_its_own_inputs_or_writes_a_world_check_rejects() {
+fn import_never_writes_over_its_own_mtl() {
     let dir = tempfile::tempdir().expect("tempdir");
     let obj = exported_room(dir.path());
     let mtl = dir.path().join("scene.mtl");
@@ -627,7 +627,13 @@ fn import_never_writes_over_its_own_inputs_or_writes_a_world_check_rejects() {
     assert!(!output.status.success());
     assert!(stderr(&output).contains("own input"), "{}", stderr(&output));
     assert_eq!(std::fs::read(&mtl).expect("mtl"), before);
-    // A spawn off the scene: refused, nothing written.
+}
+
+/// D14
+#[test]
+fn import_refuses_a_spawn_that_world_check_would_reject() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let obj = exported_room(dir.path());
     let world = dir.path().join("imported.xml");
     let output = output_within(
         binary()
