@@ -2,7 +2,7 @@
 //! was misled (D1-D20 of the issue), each named after what broke. The hang and signal tests
 //! are bounded in time: a command that hangs fails the test instead of stalling it.
 
-use crate::support::{repo_path, run_config};
+use crate::support::{binary, entries, repo_path, run_config, signal, snapshot, tiny_map};
 use splatloop::camera::{RgbdFrame, SensorConfig};
 use splatloop::dataset::DatasetWriter;
 use splatloop::episode::{run_episode, PlannerKind};
@@ -10,12 +10,6 @@ use splatloop::record::{record, RecordConfig};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
-
-fn binary() -> Command {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_splatloop"));
-    command.current_dir(repo_path(""));
-    command
-}
 
 /// Runs `command` to its end, failing the test after `limit` (and killing it).
 fn output_within(command: &mut Command, limit: Duration) -> Output {
@@ -59,14 +53,6 @@ fn stderr(output: &Output) -> String {
     String::from_utf8_lossy(&output.stderr).into_owned()
 }
 
-fn signal(pid: u32, name: &str) {
-    let status = Command::new("kill")
-        .args([name, &pid.to_string()])
-        .status()
-        .expect("kill");
-    assert!(status.success());
-}
-
 /// Waits until `path` exists, failing after `limit`.
 fn wait_for(path: &Path, limit: Duration) {
     let started = Instant::now();
@@ -78,34 +64,6 @@ fn wait_for(path: &Path, limit: Duration) {
         );
         std::thread::sleep(Duration::from_millis(100));
     }
-}
-
-/// Entries of a list file (comments skipped).
-fn entries(path: &Path) -> usize {
-    std::fs::read_to_string(path)
-        .unwrap_or_default()
-        .lines()
-        .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
-        .count()
-}
-
-/// Every file under `dir` with its bytes, sorted.
-fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    let mut files = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for entry in std::fs::read_dir(&d).expect("read dir") {
-            let path = entry.expect("entry").path();
-            if path.is_dir() {
-                stack.push(path);
-            } else {
-                let bytes = std::fs::read(&path).expect("read");
-                files.push((path.strip_prefix(dir).expect("under").to_path_buf(), bytes));
-            }
-        }
-    }
-    files.sort();
-    files
 }
 
 /// A recorded drive of `duration` s (5 frames a second, the first at 0) into `out`.
@@ -551,19 +509,6 @@ fn a_refused_setting_leaves_no_staging_folder_or_lock_and_dot_is_the_current_fol
         .filter(|n| n.to_string_lossy().starts_with('.'))
         .collect();
     assert!(hidden.is_empty(), "{hidden:?}");
-}
-
-/// A map of 20 Gaussians in the room.
-fn tiny_map(path: &Path) {
-    let mut gaussians = autonomy::gaussians::Gaussians::default();
-    for k in 0..20 {
-        gaussians.means.push([1.0 + 0.05 * k as f32, 0.0, 0.5]);
-        gaussians.colours.push([0.5, 0.4, 0.3]);
-        gaussians.log_radii.push((0.05f32).ln());
-        gaussians.logit_opacities.push(2.0);
-    }
-    let map = autonomy::map::GaussianMap::new(gaussians, vec![0.0; 20]);
-    autonomy::ply::write(&map, path).expect("map");
 }
 
 /// D12

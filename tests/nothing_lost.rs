@@ -5,30 +5,15 @@
 //! inputs that used to pass silently are errors or warnings; progress shows without a
 //! terminal.
 
-use crate::support::{fixture, repo_path, run_config};
+use crate::support::{binary, entries, fixture, repo_path, run_config, signal, snapshot, tiny_map};
 use splatloop::camera::SensorConfig;
 use splatloop::dataset::{read_trajectory, CameraFile, Dataset, DatasetWriter};
 use splatloop::episode::{run_episode, PlannerKind, RunConfig};
 use splatloop::record::{record, RecordConfig};
 use splatloop::robot::Pose2;
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::path::Path;
+use std::process::{Child, Stdio};
 use std::time::{Duration, Instant};
-
-fn binary() -> Command {
-    let mut command = Command::new(env!("CARGO_BIN_EXE_splatloop"));
-    command.current_dir(repo_path(""));
-    command
-}
-
-/// Entries of a list file (comments skipped).
-fn entries(path: &Path) -> usize {
-    std::fs::read_to_string(path)
-        .unwrap_or_default()
-        .lines()
-        .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
-        .count()
-}
 
 fn pngs(dir: &Path) -> usize {
     std::fs::read_dir(dir).map_or(0, |d| d.count())
@@ -52,14 +37,6 @@ fn wait_for_frames(child: &mut Child, out: &Path, frames: usize) {
         );
         std::thread::sleep(Duration::from_millis(200));
     }
-}
-
-fn signal(child: &Child, name: &str) {
-    let status = Command::new("kill")
-        .args([name, &child.id().to_string()])
-        .status()
-        .expect("kill");
-    assert!(status.success());
 }
 
 fn assert_whole_episode(out: &Path) {
@@ -105,7 +82,7 @@ fn a_run_stopped_by_sigint_or_sigterm_is_written_in_full_and_exits_130_or_143() 
             .spawn()
             .expect("starts");
         wait_for_frames(&mut child, &out, 8);
-        signal(&child, name);
+        signal(child.id(), name);
         let status = child.wait().expect("ends");
         assert_eq!(status.code(), Some(code), "{name}");
         assert_whole_episode(&out);
@@ -131,24 +108,6 @@ fn record_config(out: &Path, duration: f64, overwrite: bool) -> RecordConfig {
         rerun: Default::default(),
         out: out.to_owned(),
     }
-}
-
-/// Every file under `dir` with its bytes.
-fn snapshot(dir: &Path) -> Vec<(PathBuf, Vec<u8>)> {
-    let mut out = Vec::new();
-    let mut stack = vec![dir.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        for entry in std::fs::read_dir(&d).expect("dir") {
-            let path = entry.expect("entry").path();
-            if path.is_dir() {
-                stack.push(path);
-            } else {
-                out.push((path.clone(), std::fs::read(&path).expect("read")));
-            }
-        }
-    }
-    out.sort();
-    out
 }
 
 #[test]
@@ -273,7 +232,7 @@ fn one_run_at_a_time_per_folder_and_a_killed_run_leaves_no_lock() {
     assert!(!second.status.success());
     let stderr = String::from_utf8_lossy(&second.stderr);
     assert!(stderr.contains("another splatloop run"), "{stderr}");
-    signal(&child, "-KILL");
+    signal(child.id(), "-KILL");
     child.wait().expect("ends");
     let third = binary()
         .args(["record", "--duration", "0.4", "--out"])
@@ -286,18 +245,6 @@ fn one_run_at_a_time_per_folder_and_a_killed_run_leaves_no_lock() {
         String::from_utf8_lossy(&third.stderr)
     );
     assert_eq!(entries(&out.join("rgb.txt")), 3);
-}
-
-fn tiny_map(path: &Path) {
-    let mut gaussians = autonomy::gaussians::Gaussians::default();
-    for k in 0..20 {
-        gaussians.means.push([1.0 + 0.05 * k as f32, 0.0, 0.5]);
-        gaussians.colours.push([0.5, 0.4, 0.3]);
-        gaussians.log_radii.push((0.05f32).ln());
-        gaussians.logit_opacities.push(2.0);
-    }
-    let map = autonomy::map::GaussianMap::new(gaussians, vec![0.0; 20]);
-    autonomy::ply::write(&map, path).expect("map");
 }
 
 #[test]

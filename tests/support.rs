@@ -1,4 +1,5 @@
-//! Shared helpers: paths of the committed worlds and fixtures, and a loaded room.
+//! Shared helpers: paths of the committed worlds and fixtures, a loaded room, the binary,
+//! signals, list counts, folder snapshots and a tiny map.
 
 use splatloop::camera::SensorConfig;
 use splatloop::world::World;
@@ -52,4 +53,61 @@ pub fn run_config(
         fail_writes_after: None,
         out,
     }
+}
+
+/// The splatloop binary, run from the repository's root.
+pub fn binary() -> std::process::Command {
+    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_splatloop"));
+    command.current_dir(repo_path(""));
+    command
+}
+
+/// Sends a process a signal by `kill` (`-INT`, `-TERM`, `-KILL`).
+pub fn signal(pid: u32, name: &str) {
+    let status = std::process::Command::new("kill")
+        .args([name, &pid.to_string()])
+        .status()
+        .expect("kill");
+    assert!(status.success());
+}
+
+/// Entries of a list file (comments skipped).
+pub fn entries(path: &std::path::Path) -> usize {
+    std::fs::read_to_string(path)
+        .unwrap_or_default()
+        .lines()
+        .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
+        .count()
+}
+
+/// Every file under `dir` (relative to it) with its bytes, sorted.
+pub fn snapshot(dir: &std::path::Path) -> Vec<(PathBuf, Vec<u8>)> {
+    let mut files = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for entry in std::fs::read_dir(&d).expect("read dir") {
+            let path = entry.expect("entry").path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                let bytes = std::fs::read(&path).expect("read");
+                files.push((path.strip_prefix(dir).expect("under").to_path_buf(), bytes));
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
+/// A map of 20 Gaussians in the room, written as a PLY.
+pub fn tiny_map(path: &std::path::Path) {
+    let mut gaussians = autonomy::gaussians::Gaussians::default();
+    for k in 0..20 {
+        gaussians.means.push([1.0 + 0.05 * k as f32, 0.0, 0.5]);
+        gaussians.colours.push([0.5, 0.4, 0.3]);
+        gaussians.log_radii.push((0.05f32).ln());
+        gaussians.logit_opacities.push(2.0);
+    }
+    let map = autonomy::map::GaussianMap::new(gaussians, vec![0.0; 20]);
+    autonomy::ply::write(&map, path).expect("map");
 }
