@@ -17,7 +17,7 @@ pub use error::{Result, SimError};
 pub(crate) use output::canvas;
 pub use output::{dataset, novel_view, plot, rerun_log};
 pub use platform::{camera, egl, mujoco, robot};
-pub use worlds::{floorplan, scene, spawn, world, world_check, worldgen};
+pub use worlds::{floorplan, labels, scene, spawn, world, world_check, worldgen};
 
 /// `bench world`'s generation and import timings (kept at its old path).
 pub use commands::bench::worlds as bench_worlds;

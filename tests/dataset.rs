@@ -193,8 +193,8 @@ fn the_same_controls_and_seed_write_byte_identical_datasets() {
     );
     assert_eq!(
         a.len(),
-        11 * 2 + 6,
-        "11 RGB + 11 depth PNGs and 6 metadata files"
+        11 * 4 + 9,
+        "11 RGB, depth, instance and semantic PNGs and 9 metadata files"
     );
     for ((name_a, bytes_a), (name_b, bytes_b)) in a.iter().zip(&b) {
         assert_eq!(name_a, name_b);
@@ -249,4 +249,122 @@ fn a_degree_3_map_loads_with_plyfile_as_the_reference_loader_reads_it() {
     let x: f32 = words[4].parse().expect("x");
     assert_eq!(x, map.gaussians.means[3][0]);
     assert_eq!(words[5].parse::<f32>().expect("u"), 9.0);
+}
+
+fn record_world(out: &Path, world: &str, masks: bool) -> Dataset {
+    let config = RecordConfig {
+        world: repo_path(world),
+        controls: "spin".into(),
+        duration: 2.0,
+        frame_rate: 5.0,
+        seed: 0,
+        sensor: SensorConfig {
+            masks,
+            ..SensorConfig::default()
+        },
+        start: None,
+        overwrite: false,
+        rerun: Default::default(),
+        out: out.to_owned(),
+    };
+    record(&config, &mut |_| {}).expect("recording");
+    Dataset::open(out).expect("opens")
+}
+
+/// What the generator places: the classes a generated world's masks may hold.
+const GENERATED_KINDS: [&str; 9] = [
+    "floor", "wall", "block", "sofa", "cylinder", "table", "rack", "vase", "ball",
+];
+
+#[test]
+fn labels_name_every_id_in_the_masks_and_a_generated_worlds_classes_are_its_kinds() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for world in [
+        "worlds/suite/office_01.xml",
+        "worlds/suite/warehouse_01.xml",
+    ] {
+        let out = dir.path().join(world.replace('/', "_"));
+        let dataset = record_world(&out, world, true);
+        let labels = dataset.labels.as_ref().expect("labels.json");
+        let mut classes_seen = std::collections::BTreeSet::new();
+        let mut instances_seen = std::collections::BTreeSet::new();
+        for index in 0..dataset.frames.len() {
+            let (instance, semantic) = dataset
+                .load_masks(index)
+                .expect("reads")
+                .expect("masks in every frame");
+            let k = dataset.camera.intrinsics();
+            assert_eq!(instance.len(), k.pixel_count());
+            for (&i, &c) in instance.iter().zip(&semantic) {
+                if i == 0 {
+                    assert_eq!(c, 0, "nothing has no class");
+                    continue;
+                }
+                let listed = labels
+                    .instances
+                    .iter()
+                    .find(|l| l.id == i)
+                    .unwrap_or_else(|| panic!("{world}: instance {i} is not in labels.json"));
+                assert_eq!(c, listed.class, "{world}: semantic = the instance's class");
+                assert!(labels.classes.iter().any(|l| l.id == c));
+                instances_seen.insert(i);
+                classes_seen.insert(c);
+            }
+        }
+        assert!(
+            instances_seen.len() >= 3,
+            "{world}: a turn should show several instances: {instances_seen:?}"
+        );
+        for class in &labels.classes {
+            assert!(
+                GENERATED_KINDS.contains(&class.name.as_str()),
+                "{world}: class {:?} is no kind the generator places",
+                class.name
+            );
+        }
+        let names: Vec<&str> = labels.classes.iter().map(|c| c.name.as_str()).collect();
+        assert!(
+            names.contains(&"wall") && names.contains(&"floor"),
+            "{names:?}"
+        );
+        // The robot is never an instance.
+        let world = splatloop::world::World::load(&repo_path(world), &SensorConfig::default())
+            .expect("world");
+        for instance in &labels.instances {
+            for geom in &instance.geoms {
+                assert!(!world.robot().owns_geom(geom.id), "{}", instance.name);
+            }
+        }
+        let episode: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(out.join("episode.json")).expect("episode.json"),
+        )
+        .expect("json");
+        let files: Vec<&str> = episode["files"]
+            .as_array()
+            .expect("manifest")
+            .iter()
+            .filter_map(|f| f.as_str())
+            .collect();
+        for file in [
+            "labels.json",
+            "instance.txt",
+            "semantic.txt",
+            "instance/000000.png",
+            "semantic/000010.png",
+        ] {
+            assert!(files.contains(&file), "the manifest lists {file}");
+        }
+    }
+}
+
+#[test]
+fn a_dataset_without_masks_has_none_and_reads_as_before() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let dataset = record_world(dir.path(), "worlds/room.xml", false);
+    assert!(dataset.labels.is_none());
+    assert!(!dir.path().join("instance").exists() && !dir.path().join("labels.json").exists());
+    assert_eq!(dataset.frames.len(), 11);
+    assert!(dataset.frames.iter().all(|f| f.masks.is_none()));
+    assert!(dataset.load(3).expect("loads").instance.is_empty());
+    assert_eq!(dataset.load_masks(3).expect("reads"), None);
 }

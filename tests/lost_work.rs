@@ -104,6 +104,7 @@ fn small_frame(time: f64) -> RgbdFrame {
             },
             world_from_camera: autonomy::math::Isometry3::identity(),
         },
+        instance: Vec::new(),
     }
 }
 

@@ -1,5 +1,5 @@
-//! Nothing lost: a run stopped by SIGINT or SIGTERM is written in full with equal list
-//! counts; `--overwrite` replaces only an episode's own files; a failed run leaves the earlier
+//! Nothing lost: a run stopped by SIGINT or SIGTERM is written in full with equal image and
+//! list counts (masks included); `--overwrite` replaces only an episode's own files; a failed run leaves the earlier
 //! episode as it was; one run at a time per folder, and a killed run does not keep the lock;
 //! no command writes over its inputs or an existing file without `--overwrite`; the bad
 //! inputs that used to pass silently are errors or warnings; progress shows without a
@@ -42,8 +42,17 @@ fn wait_for_frames(child: &mut Child, out: &Path, frames: usize) {
 fn assert_whole_episode(out: &Path) {
     let frames = pngs(&out.join("rgb"));
     assert!(frames > 0);
-    assert_eq!(pngs(&out.join("depth")), frames);
-    for list in ["rgb.txt", "depth.txt", "groundtruth.txt"] {
+    // Masks are on by default: their images and lists count the same.
+    for images in ["depth", "instance", "semantic"] {
+        assert_eq!(pngs(&out.join(images)), frames, "{images}/");
+    }
+    for list in [
+        "rgb.txt",
+        "depth.txt",
+        "instance.txt",
+        "semantic.txt",
+        "groundtruth.txt",
+    ] {
         assert_eq!(entries(&out.join(list)), frames, "{list}");
     }
     let transforms: serde_json::Value = serde_json::from_str(
@@ -144,7 +153,9 @@ fn a_run_that_fails_while_writing_leaves_the_earlier_episode_intact() {
     record(&record_config(&out, 1.0, false), &mut |_| {}).expect("first");
     let before = snapshot(&out);
     let old = Dataset::open(&out).expect("reads");
+    let labels = std::sync::Arc::new(old.labels.clone().expect("masks by default"));
     let mut writer = DatasetWriter::create(&out, 5.0, true).expect("writer");
+    writer.write_labels(labels.clone()).expect("labels");
     writer.fail_writes_after(3);
     let mut failed = None;
     for k in 0..old.frames.len() {
@@ -159,6 +170,7 @@ fn a_run_that_fails_while_writing_leaves_the_earlier_episode_intact() {
     assert_eq!(snapshot(&out), before, "the earlier episode is untouched");
     // And a finish that fails (the disk filled up at the end) changes nothing either.
     let mut writer = DatasetWriter::create(&out, 5.0, true).expect("writer");
+    writer.write_labels(labels).expect("labels");
     writer
         .write_frame(&old.load(0).expect("frame"))
         .expect("one frame");

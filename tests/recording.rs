@@ -111,6 +111,20 @@ fn a_ten_second_recording_holds_every_frame_map_and_plan() {
         "{camera}"
     );
     assert_eq!(rows("/world/camera"), metrics.frames);
+    // Every frame's masks, as segmentation images named by labels.json (an annotation
+    // context logged once, static).
+    for entity in ["/world/camera/instance", "/world/camera/semantic"] {
+        let (n, logged) = (rows(entity), columns(entity));
+        assert!(
+            (metrics.frames..=metrics.frames + 1).contains(&n),
+            "{entity}: {n} rows for {} frames",
+            metrics.frames
+        );
+        assert!(
+            logged.contains("SegmentationImage:buffer") && logged.contains("AnnotationContext"),
+            "{entity}: {logged}"
+        );
+    }
     // Every mapping step: the map, in colour and by uncertainty.
     assert!(metrics.mapping_steps >= 9, "{}", metrics.mapping_steps);
     for entity in ["/world/map/colour", "/world/map/uncertainty"] {

@@ -266,3 +266,105 @@ fn the_optical_frame_is_right_for_a_half_turn() {
         "{right}"
     );
 }
+
+/// Pixels on a grid (every 5th) with a depth return and one instance in their 3x3
+/// neighbourhood (silhouette edges excluded): how many there are, how many show an instance
+/// whose geoms hold the geom MuJoCo's own mj_ray hits through the pixel, and the instances
+/// seen.
+fn masks_against_mj_ray(
+    world: &mut World,
+    camera: &mut RgbdCamera,
+    poses: &[Pose2],
+) -> (usize, usize, std::collections::BTreeSet<u16>) {
+    let labels = camera.labels().expect("masks are on by default").clone();
+    let (mut compared, mut agreed) = (0, 0);
+    let mut seen = std::collections::BTreeSet::new();
+    for &pose in poses {
+        let frame = capture_at(world, camera, pose);
+        let k = frame.camera.intrinsics;
+        let (w, h) = (k.width as usize, k.height as usize);
+        assert_eq!(frame.instance.len(), w * h, "a mask with every frame");
+        for v in (1..h - 1).step_by(5) {
+            for u in (1..w - 1).step_by(5) {
+                let id = frame.instance[v * w + u];
+                let interior = (v - 1..=v + 1)
+                    .all(|y| (u - 1..=u + 1).all(|x| frame.instance[y * w + x] == id));
+                if frame.depth[v * w + u] <= 0.0 || !interior {
+                    continue;
+                }
+                compared += 1;
+                let hit = cast(world, &frame, u as f64, v as f64).map(|(_, geom)| geom);
+                let holds = usize::from(id)
+                    .checked_sub(1)
+                    .and_then(|i| labels.instances.get(i))
+                    .is_some_and(|instance| instance.geoms.iter().any(|g| Some(g.id) == hit));
+                if holds {
+                    agreed += 1;
+                    seen.insert(id);
+                }
+            }
+        }
+    }
+    (compared, agreed, seen)
+}
+
+#[test]
+fn each_masked_pixel_shows_the_instance_mj_ray_hits_in_generated_and_imported_worlds() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    // An imported OBJ scene: a generated world exported and imported again (its objects
+    // become bodies).
+    let original = World::load(
+        &repo_path("worlds/suite/apartment_03.xml"),
+        &SensorConfig::default(),
+    )
+    .expect("world");
+    let obj = dir.path().join("scene.obj");
+    splatloop::scene::export::export_world(&original, &obj, false).expect("export");
+    let imported = dir.path().join("imported.xml");
+    splatloop::scene::import::import_scene(&splatloop::scene::import::ImportConfig {
+        scene: obj,
+        up: splatloop::scene::Up::Y,
+        scale: 1.0,
+        floor: None,
+        spawn: Some(original.start()),
+        out: imported.clone(),
+        overwrite: false,
+    })
+    .expect("import");
+    let gl = EglContext::new().expect("EGL");
+    for path in [
+        repo_path("worlds/suite/apartment_01.xml"),
+        repo_path("worlds/suite/office_01.xml"),
+        repo_path("worlds/suite/warehouse_01.xml"),
+        imported,
+    ] {
+        let mut world = World::load(&path, &SensorConfig::default()).expect("world");
+        let mut camera = world
+            .make_camera(&SensorConfig::default(), 0, &gl)
+            .expect("camera");
+        // Starts the robot can reach, with room around it (a pose under a table could put
+        // the camera inside a leg, which the near plane clips and mj_ray hits from inside).
+        let poses: Vec<Pose2> = (1..=4)
+            .map(|seed| {
+                splatloop::spawn::place_robot(&mut world, splatloop::spawn::Spawn::Random, seed)
+                    .expect("a random start")
+            })
+            .collect();
+        let (compared, agreed, seen) = masks_against_mj_ray(&mut world, &mut camera, &poses);
+        assert!(
+            compared >= 1000,
+            "{}: only {compared} pixels compared",
+            path.display()
+        );
+        assert!(
+            agreed as f64 >= 0.995 * compared as f64,
+            "{}: {agreed} of {compared} masked pixels show the instance mj_ray hits",
+            path.display()
+        );
+        assert!(
+            seen.len() >= 4,
+            "{}: the views should show several instances: {seen:?}",
+            path.display()
+        );
+    }
+}

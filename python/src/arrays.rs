@@ -44,6 +44,17 @@ pub fn depth_array<'py>(
     Ok(PyArray1::from_slice(py, depth).reshape(shape)?.into_any())
 }
 
+/// (H, W) uint16 ids (an instance or semantic mask).
+pub fn mask_array<'py>(
+    py: Python<'py>,
+    ids: &[u16],
+    camera: &PinholeCamera,
+) -> PyResult<Bound<'py, PyAny>> {
+    let k = &camera.intrinsics;
+    let shape = [k.height as usize, k.width as usize];
+    Ok(PyArray1::from_slice(py, ids).reshape(shape)?.into_any())
+}
+
 /// (4, 4) float64 world_from_camera.
 pub fn pose_array<'py>(py: Python<'py>, camera: &PinholeCamera) -> PyResult<Bound<'py, PyAny>> {
     let m = camera.world_from_camera.to_homogeneous();

@@ -1,13 +1,15 @@
 //! `Dataset`: an episode or `record` folder read frame by frame, as arrays.
 
-use crate::arrays::frame_dict;
+use crate::arrays::{frame_dict, mask_array};
 use crate::to_py;
 use pyo3::exceptions::{PyFileNotFoundError, PyIndexError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
 
-/// An episode or `record` folder read frame by frame (torn last frames skipped).
+/// An episode or `record` folder read frame by frame (torn last frames skipped); a dataset
+/// written with masks also yields `instance` and `semantic` (H, W) uint16 ids, which
+/// `labels` (labels.json as a dict) names.
 #[pyclass(module = "splatloop._splatloop")]
 pub struct Dataset {
     inner: splatloop::dataset::Dataset,
@@ -44,6 +46,23 @@ impl Dataset {
         let frame = self.inner.load(i as usize).map_err(to_py)?;
         let dict = frame_dict(py, &frame)?;
         dict.set_item("timestamp", self.inner.frames[i as usize].time)?;
+        if let Some((instance, semantic)) = self.inner.load_masks(i as usize).map_err(to_py)? {
+            dict.set_item("instance", mask_array(py, &instance, &frame.camera)?)?;
+            dict.set_item("semantic", mask_array(py, &semantic, &frame.camera)?)?;
+        }
         Ok(dict)
+    }
+
+    /// labels.json as a dict (`classes`: id, name; `instances`: id, name, class, geoms), or
+    /// None for a dataset written without masks.
+    #[getter]
+    fn labels<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let Some(labels) = &self.inner.labels else {
+            return Ok(None);
+        };
+        let text = serde_json::to_string(labels)
+            .map_err(|e| pyo3::exceptions::PyValueError::new_err(e.to_string()))?;
+        let json = py.import("json")?;
+        Ok(Some(json.call_method1("loads", (text,))?))
     }
 }

@@ -45,6 +45,7 @@ pub fn eval(args: EvalArgs) -> Result<()> {
     let sensor = SensorConfig {
         width: args.view.width,
         height: args.view.height,
+        masks: false,
         ..SensorConfig::default()
     };
     let (evaluation, surface) = crate::novel_view::evaluate_map_surface(

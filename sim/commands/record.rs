@@ -43,6 +43,11 @@ pub struct RecordArgs {
     /// Standard deviation of Gaussian depth noise in metres (off when absent).
     #[arg(long)]
     depth_noise: Option<f64>,
+    /// Instance and semantic masks with every frame (instance/, semantic/, labels.json), from
+    /// a segmentation pass of the camera; false skips them.
+    #[arg(long, action = clap::ArgAction::Set, num_args = 0..=1, default_value_t = true,
+          default_missing_value = "true", value_name = "BOOL")]
+    masks: bool,
     /// Seed for every random choice.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -68,6 +73,7 @@ impl RecordArgs {
                 height: args.height,
                 max_range: args.max_range,
                 depth_noise_sigma: args.depth_noise,
+                masks: args.masks,
                 ..SensorConfig::default()
             },
             start: args.start,

@@ -97,6 +97,16 @@ pub struct RunOptions {
           default_missing_value = "true", value_name = "BOOL")]
     #[serde(default)]
     pub stop_when_done: bool,
+    /// Instance and semantic masks with every frame (instance/, semantic/, labels.json), from
+    /// a segmentation pass of the camera; false skips them.
+    #[arg(long, action = clap::ArgAction::Set, num_args = 0..=1, default_value_t = true,
+          default_missing_value = "true", value_name = "BOOL")]
+    #[serde(default = "masks_on")]
+    pub masks: bool,
+}
+
+fn masks_on() -> bool {
+    true
 }
 
 /// `--planner`: a built-in name or python:MODULE:CLASS.
@@ -147,6 +157,7 @@ impl RunArgs {
             sensor: SensorConfig {
                 width: self.options.view.width,
                 height: self.options.view.height,
+                masks: self.options.masks,
                 ..SensorConfig::default()
             },
             test_views: self.options.test_views,

@@ -164,7 +164,7 @@ impl TruthViews {
         let mut views = Vec::new();
         for pose in tests.poses.iter().step_by(stride).take(count) {
             world.robot().place(&mut data, *pose);
-            camera.capture_into(&data, &mut frame)?;
+            camera.capture_rgbd_into(&data, &mut frame)?;
             let truth = frame.rgb.iter().map(|c| f32::from(*c) / 255.0).collect();
             views.push((frame.camera, truth));
         }
@@ -225,7 +225,7 @@ pub fn evaluate(
             return Ok(Evaluation::none());
         }
         world.robot().place(&mut data, *pose);
-        camera.capture_into(&data, &mut frame)?;
+        camera.capture_rgbd_into(&data, &mut frame)?;
         let rendered = engine
             .render(&map.gaussians, &frame.camera)
             .map_err(|e| SimError::Mapping(e.to_string()))?;

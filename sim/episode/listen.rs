@@ -89,7 +89,13 @@ impl TickListener for RerunLog {
                 seconds,
             } => {
                 self.at(frame.time);
-                self.frame(&frame.camera, &frame.rgb, &frame.depth, path)?;
+                self.frame(
+                    &frame.camera,
+                    &frame.rgb,
+                    &frame.depth,
+                    &frame.instance,
+                    path,
+                )?;
                 self.scalar("timing/camera_ms", 1e3 * seconds)
             }
             TickEvent::Mapped { time, map, seconds } => {

@@ -172,10 +172,16 @@ pub fn record(config: &RecordConfig, on_progress: &mut dyn FnMut(f64)) -> Result
     let gl = EglContext::new()?;
     let mut camera = world.make_camera(&config.sensor, config.seed, &gl)?;
     let mut writer = DatasetWriter::create(&config.out, config.sensor.max_range, config.overwrite)?;
-    let rerun = RerunLog::open(
+    if let Some(labels) = camera.labels() {
+        writer.write_labels(std::sync::Arc::clone(labels))?;
+    }
+    let mut rerun = RerunLog::open(
         &config.rerun,
         &format!("record {} {}", config.world.display(), config.controls),
     )?;
+    if let (Some(log), Some(labels)) = (&mut rerun, camera.labels()) {
+        log.labels(std::sync::Arc::clone(labels))?;
+    }
     let mut path = Vec::new();
 
     let timestep = world.model().timestep();
@@ -193,7 +199,13 @@ pub fn record(config: &RecordConfig, on_progress: &mut dyn FnMut(f64)) -> Result
             if let Some(log) = &rerun {
                 path.push(world.pose());
                 log.at(time);
-                log.frame(&frame.camera, &frame.rgb, &frame.depth, &path)?;
+                log.frame(
+                    &frame.camera,
+                    &frame.rgb,
+                    &frame.depth,
+                    &frame.instance,
+                    &path,
+                )?;
             }
             next_frame += frame_period;
             on_progress(time);

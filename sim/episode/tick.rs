@@ -14,7 +14,7 @@ use super::control::{Controller, ThinkTime, Verdict};
 use super::listen::{Listeners, TickEvent, TickListener};
 use super::tally::Tally;
 use super::{test_seed, Progress, RunConfig, StopRequest, POINT_CLOUD};
-use crate::camera::{RgbdCamera, RgbdFrame};
+use crate::camera::{RgbdCamera, RgbdFrame, SensorConfig};
 use crate::dataset::DatasetWriter;
 use crate::egl::EglContext;
 use crate::error::{Result, SimError};
@@ -210,13 +210,19 @@ impl Episode {
             writer.fail_writes_after(frames);
         }
         writer.name_point_cloud(POINT_CLOUD);
+        if let Some(labels) = camera.labels() {
+            writer.write_labels(std::sync::Arc::clone(labels))?;
+        }
         let title = format!(
             "run {} {} seed {}",
             config.world.display(),
             config.planner,
             config.seed
         );
-        let rerun = RerunLog::open(&config.rerun, &title)?;
+        let mut rerun = RerunLog::open(&config.rerun, &title)?;
+        if let (Some(log), Some(labels)) = (&mut rerun, camera.labels()) {
+            log.labels(std::sync::Arc::clone(labels))?;
+        }
         // Fixed before the episode so coverage can be reported as it grows.
         let tests = TestSet::sample(
             &world,
@@ -227,7 +233,14 @@ impl Episode {
         )?;
         let truth_views = TruthViews::capture(
             &world,
-            &mut world.make_camera(&config.sensor, test_seed(config.seed), &gl)?,
+            &mut world.make_camera(
+                &SensorConfig {
+                    masks: false,
+                    ..config.sensor.clone()
+                },
+                test_seed(config.seed),
+                &gl,
+            )?,
             &tests,
             PSNR_OVER_TIME_VIEWS,
         )?;

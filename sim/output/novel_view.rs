@@ -125,6 +125,7 @@ pub fn render_map(config: &RenderConfig, on_frame: &mut dyn FnMut(usize, usize))
             rgb,
             depth,
             camera,
+            instance: Vec::new(),
         })?;
         on_frame(k + 1, poses.len());
     }

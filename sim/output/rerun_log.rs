@@ -3,7 +3,9 @@
 //! seconds), in the world frame (z up):
 //!
 //! - `world/camera` — the pinhole camera at world_from_camera (OpenCV optical frame), with its
-//!   `rgb` image and `depth` image (metres, as the dataset's depth PNGs: 5000 per metre);
+//!   `rgb` image, `depth` image (metres, as the dataset's depth PNGs: 5000 per metre) and, with
+//!   masks, its `instance` and `semantic` segmentation images (annotated with labels.json's
+//!   instance and class names);
 //! - `world/robot/path` — the base's path so far, a line strip;
 //! - `world/plan/candidates` and `world/plan/chosen` — every planning step's candidate
 //!   trajectories and the one followed;
@@ -16,6 +18,7 @@
 //! builds with it); without it, asking for a recording is an error that says how to get one.
 
 use crate::error::{Result, SimError};
+use crate::labels::Labels;
 use crate::robot::Pose2;
 use autonomy::camera::PinholeCamera;
 use autonomy::map::GaussianMap;
@@ -192,6 +195,8 @@ pub struct RerunLog {
     stream: rerun::RecordingStream,
     map_every: usize,
     map_steps: usize,
+    /// The masks' labels, once [`RerunLog::labels`] gave them.
+    labels: Option<std::sync::Arc<Labels>>,
 }
 
 /// Heights the flat things are drawn at, metres: the path just above the floor, plans above it.
@@ -245,6 +250,7 @@ impl RerunLog {
             stream,
             map_every: target.map_every,
             map_steps: 0,
+            labels: None,
         };
         log.emit_static("world", &rerun::ViewCoordinates::RIGHT_HAND_Z_UP())?;
         Ok(log)
@@ -281,13 +287,41 @@ impl RerunLog {
         let _ = time;
     }
 
-    /// One camera frame: the camera's pose and intrinsics, its RGB (row-major, top row first)
-    /// and its planar depth in metres; and the robot's path so far.
+    /// The names of the masks' ids: instance and class names as the segmentation images'
+    /// annotations (logged once, static).
+    pub fn labels(&mut self, labels: std::sync::Arc<Labels>) -> Result<()> {
+        #[cfg(feature = "rerun")]
+        {
+            let instances = rerun::AnnotationContext::new(
+                labels
+                    .instances
+                    .iter()
+                    .map(|i| (i.id, i.name.as_str()))
+                    .collect::<Vec<_>>(),
+            );
+            self.emit_static("world/camera/instance", &instances)?;
+            let classes = rerun::AnnotationContext::new(
+                labels
+                    .classes
+                    .iter()
+                    .map(|c| (c.id, c.name.as_str()))
+                    .collect::<Vec<_>>(),
+            );
+            self.emit_static("world/camera/semantic", &classes)?;
+        }
+        self.labels = Some(labels);
+        Ok(())
+    }
+
+    /// One camera frame: the camera's pose and intrinsics, its RGB (row-major, top row first),
+    /// its planar depth in metres and its instance mask (empty without masks); and the robot's
+    /// path so far.
     pub fn frame(
         &self,
         camera: &PinholeCamera,
         rgb: &[u8],
         depth: &[f32],
+        instance: &[u16],
         path: &[Pose2],
     ) -> Result<()> {
         #[cfg(feature = "rerun")]
@@ -333,6 +367,21 @@ impl RerunLog {
                 "world/camera/depth",
                 &rerun::DepthImage::from_gray16(le_bytes(&units), size).with_meter(DEPTH_PER_METRE),
             )?;
+            if let Some(labels) = self.labels.as_ref().filter(|_| !instance.is_empty()) {
+                let datatype = rerun::datatypes::ChannelDatatype::U16;
+                self.emit(
+                    "world/camera/instance",
+                    &rerun::SegmentationImage::new(le_bytes(instance), size, datatype),
+                )?;
+                self.emit(
+                    "world/camera/semantic",
+                    &rerun::SegmentationImage::new(
+                        le_bytes(&labels.semantic(instance)),
+                        size,
+                        datatype,
+                    ),
+                )?;
+            }
             self.emit(
                 "world/robot/path",
                 &rerun::LineStrips3D::new([lifted(path.iter().copied(), PATH_HEIGHT)])
@@ -340,7 +389,7 @@ impl RerunLog {
             )?;
         }
         #[cfg(not(feature = "rerun"))]
-        let _ = (camera, rgb, depth, path);
+        let _ = (camera, rgb, depth, instance, path);
         Ok(())
     }
 

@@ -3,6 +3,7 @@
 
 use crate::egl::EglContext;
 use crate::error::{Result, SimError};
+use crate::labels::Labels;
 use crate::mujoco::{Data, Model, RenderFlags, SceneRenderer};
 use autonomy::camera::{Intrinsics, PinholeCamera};
 use autonomy::math::{Isometry3, Matrix3, Rotation3, UnitQuaternion, Vector3};
@@ -26,9 +27,16 @@ pub struct SensorConfig {
     pub max_range: f64,
     /// Standard deviation of additive Gaussian depth noise, metres; `None` for exact depth.
     pub depth_noise_sigma: Option<f64>,
+    /// Instance and semantic masks with every frame (a segmentation pass of the same camera).
+    #[serde(default = "masks_on")]
+    pub masks: bool,
     /// Rendering features (all off by default: a depth camera sees no shadows).
     #[serde(skip)]
     pub flags: RenderFlags,
+}
+
+fn masks_on() -> bool {
+    true
 }
 
 impl Default for SensorConfig {
@@ -38,6 +46,7 @@ impl Default for SensorConfig {
             height: 240,
             max_range: 5.0,
             depth_noise_sigma: None,
+            masks: true,
             flags: RenderFlags::default(),
         }
     }
@@ -100,6 +109,9 @@ pub struct RgbdFrame {
     pub depth: Vec<f32>,
     /// Intrinsics and the pose of the optical frame.
     pub camera: PinholeCamera,
+    /// The instance each pixel shows (`W * H`, 0 = nothing; [`Labels`]); empty when the
+    /// camera makes no masks.
+    pub instance: Vec<u16>,
 }
 
 /// Converts MuJoCo's camera orientation (looking along -z, y up) to the optical frame.
@@ -121,6 +133,9 @@ pub struct RgbdCamera {
     noise: Option<(Normal<f64>, ChaCha8Rng)>,
     raw_rgb: Vec<u8>,
     raw_depth: Vec<f32>,
+    /// The world's labels, when the camera makes masks.
+    labels: Option<Arc<Labels>>,
+    raw_geoms: Vec<i32>,
 }
 
 impl RgbdCamera {
@@ -159,7 +174,22 @@ impl RgbdCamera {
             noise,
             raw_rgb: vec![0; 3 * pixels],
             raw_depth: vec![0.0; pixels],
+            labels: None,
+            raw_geoms: Vec::new(),
         })
+    }
+
+    /// The camera that also renders each frame's instance mask with `labels` (a second,
+    /// segmentation pass of the same camera: MuJoCo draws colour or ids, not both at once).
+    pub fn with_labels(mut self, labels: Arc<Labels>) -> Self {
+        self.raw_geoms = vec![-1; self.intrinsics.pixel_count()];
+        self.labels = Some(labels);
+        self
+    }
+
+    /// The labels the masks use, when the camera makes them.
+    pub fn labels(&self) -> Option<&Arc<Labels>> {
+        self.labels.as_ref()
     }
 
     /// The intrinsics K of the images.
@@ -186,6 +216,7 @@ impl RgbdCamera {
                 intrinsics: self.intrinsics,
                 world_from_camera: Isometry3::identity(),
             },
+            instance: Vec::new(),
         }
     }
 
@@ -196,8 +227,31 @@ impl RgbdCamera {
         Ok(frame)
     }
 
-    /// Renders the current state into `frame`, reusing its buffers.
+    /// Renders the current state into `frame`, reusing its buffers: RGB-D, and the instance
+    /// mask when the camera has labels.
     pub fn capture_into(&mut self, data: &Data, frame: &mut RgbdFrame) -> Result<()> {
+        self.capture_rgbd_into(data, frame)?;
+        if let Some(labels) = &self.labels {
+            self.renderer
+                .render_geom_ids(data, self.camera_id, &mut self.raw_geoms)?;
+            let w = self.intrinsics.width as usize;
+            frame.instance.resize(self.raw_geoms.len(), 0);
+            for (dst_row, src_row) in frame
+                .instance
+                .chunks_exact_mut(w)
+                .zip(self.raw_geoms.chunks_exact(w).rev())
+            {
+                for (dst, &geom) in dst_row.iter_mut().zip(src_row) {
+                    *dst = labels.instance_of_geom(geom);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Renders only RGB-D into `frame` (no mask, whatever the camera makes): what the
+    /// evaluation's views need.
+    pub fn capture_rgbd_into(&mut self, data: &Data, frame: &mut RgbdFrame) -> Result<()> {
         self.renderer
             .render_raw(data, self.camera_id, &mut self.raw_rgb, &mut self.raw_depth)?;
         let (w, h) = (
@@ -221,6 +275,7 @@ impl RgbdCamera {
                 *d = (f64::from(*d) + normal.sample(rng)).max(0.0) as f32;
             }
         }
+        frame.instance.clear();
         Ok(())
     }
 

@@ -4,6 +4,7 @@
 use crate::camera::{RgbdCamera, SensorConfig};
 use crate::egl::EglContext;
 use crate::error::Result;
+use crate::labels::Labels;
 use crate::mujoco::{Contact, Data, Model, ObjKind};
 use crate::robot::{names, Pose2, Robot, UnicycleCommand};
 use std::path::Path;
@@ -136,14 +137,25 @@ impl World {
         Ok(())
     }
 
-    /// Makes the robot's RGB-D camera; needs a current EGL context.
+    /// Makes the robot's RGB-D camera (with the world's labels when `config.masks`); needs a
+    /// current EGL context.
     pub fn make_camera(
         &self,
         config: &SensorConfig,
         seed: u64,
         gl: &EglContext,
     ) -> Result<RgbdCamera> {
-        RgbdCamera::new(Arc::clone(&self.model), self.robot.camera, config, seed, gl)
+        let camera = RgbdCamera::new(Arc::clone(&self.model), self.robot.camera, config, seed, gl)?;
+        Ok(if config.masks {
+            camera.with_labels(Arc::new(self.labels()?))
+        } else {
+            camera
+        })
+    }
+
+    /// The world's instances and classes, the robot left out.
+    pub fn labels(&self) -> Result<Labels> {
+        Labels::of_model(&self.model, self.robot.body)
     }
 
     /// The compiled model.

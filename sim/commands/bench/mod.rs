@@ -37,26 +37,43 @@ pub fn bench_sensor(world_path: &Path, frames: usize) -> Result<(String, Vec<Sen
     let mut rows = Vec::new();
     let command = UnicycleCommand { v: 0.3, w: 0.25 };
     let cases = [
-        ("sensor defaults", 320, 240, RenderFlags::default()),
-        ("sensor defaults", 640, 480, RenderFlags::default()),
+        ("sensor defaults", 320, 240, RenderFlags::default(), false),
+        (
+            "sensor defaults + masks",
+            320,
+            240,
+            RenderFlags::default(),
+            true,
+        ),
+        ("sensor defaults", 640, 480, RenderFlags::default(), false),
+        (
+            "sensor defaults + masks",
+            640,
+            480,
+            RenderFlags::default(),
+            true,
+        ),
         (
             "MuJoCo defaults (baseline)",
             320,
             240,
             RenderFlags::mujoco_defaults(),
+            false,
         ),
     ];
-    for (label, width, height, flags) in cases {
+    for (label, width, height, flags, masks) in cases {
         let sensor = SensorConfig {
             width,
             height,
             flags,
+            masks,
             ..SensorConfig::default()
         };
         let mut world = World::load(world_path, &sensor)?;
         let mut camera = world.make_camera(&sensor, 0, &gl)?;
         let mut frame = camera.blank_frame();
-        // Warm up caches and the driver, then time capture + depth conversion only.
+        // Warm up caches and the driver, then time capture + depth conversion (+ the mask)
+        // only.
         for _ in 0..5 {
             camera.capture_into(world.data(), &mut frame)?;
         }

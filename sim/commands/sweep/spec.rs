@@ -411,6 +411,10 @@ impl Sweep {
     }
 }
 
+/// Run options that add files to an episode folder and change none of its numbers: a sweep
+/// may go on with them changed (an episode written before them has none of their files).
+const FILES_ONLY: &[&str] = &["masks"];
+
 /// Run options as command-line words: `{"latency": "none", "rtguide_free_space_edges": true}`
 /// is `--latency none --rtguide-free-space-edges`; a false switch is written out
 /// (`--rtguide-frontier-regions false`), since a switch may be on by default.
@@ -613,7 +617,7 @@ fn first_difference(earlier: &SweepSpec, now: &SweepSpec) -> Option<String> {
         // A switch added since the sweep began is missing from it; off, it is what ran then
         // (a new switch's missing key reads as off).
         let added_off = a.is_none() && b == Some(&Value::Bool(false));
-        if a != b && !added_off {
+        if a != b && !added_off && !FILES_ONLY.contains(&key.as_str()) {
             return Some(format!(
                 "--{} was {} and is now {}",
                 key.replace('_', "-"),

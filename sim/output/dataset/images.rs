@@ -1,4 +1,5 @@
-//! PNG files of the dataset: 8-bit RGB and 16-bit depth (TUM: 5000 units per metre).
+//! PNG files of the dataset: 8-bit RGB, 16-bit depth (TUM: 5000 units per metre) and 16-bit
+//! label masks (instance and semantic ids).
 
 use super::DEPTH_SCALE;
 use crate::error::{Result, SimError};
@@ -56,6 +57,38 @@ pub fn write_depth_png(path: &Path, width: u32, height: u32, depth: &[f32]) -> R
         png::BitDepth::Sixteen,
         &bytes,
     )
+}
+
+/// Writes a 16-bit mask (an id per pixel, 0 = nothing), rows top to bottom.
+pub fn write_mask_png(path: &Path, width: u32, height: u32, ids: &[u16]) -> Result<()> {
+    let bytes: Vec<u8> = ids.iter().flat_map(|id| id.to_be_bytes()).collect();
+    encode(
+        path,
+        width,
+        height,
+        png::ColorType::Grayscale,
+        png::BitDepth::Sixteen,
+        &bytes,
+    )
+}
+
+/// Reads a 16-bit mask PNG: (width, height, ids).
+pub fn read_mask_png(path: &Path) -> Result<(u32, u32, Vec<u16>)> {
+    let (info, bytes) = decode(path)?;
+    if info.color_type != png::ColorType::Grayscale || info.bit_depth != png::BitDepth::Sixteen {
+        return Err(SimError::BadDataset {
+            path: path.to_owned(),
+            detail: format!(
+                "expected a 16-bit grey mask, found {:?} {:?}",
+                info.color_type, info.bit_depth
+            ),
+        });
+    }
+    let ids = bytes
+        .chunks_exact(2)
+        .map(|b| u16::from_be_bytes([b[0], b[1]]))
+        .collect();
+    Ok((info.width, info.height, ids))
 }
 
 fn decode(path: &Path) -> Result<(png::OutputInfo, Vec<u8>)> {

@@ -6,7 +6,9 @@ mod place;
 mod reader;
 mod writer;
 
-pub use images::{read_depth_png, read_rgb_png, write_depth_png, write_rgb_png};
+pub use images::{
+    read_depth_png, read_mask_png, read_rgb_png, write_depth_png, write_mask_png, write_rgb_png,
+};
 pub use reader::{read_trajectory, Dataset, DatasetFrame};
 pub(crate) use writer::write_json;
 pub use writer::DatasetWriter;

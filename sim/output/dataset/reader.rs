@@ -1,8 +1,11 @@
-//! Reads an episode folder back: the camera, the poses, and each frame's images.
+//! Reads an episode folder back: the camera, the poses, each frame's images and, in a
+//! dataset written with masks, its labels and each frame's instance and semantic masks
+//! (datasets written before masks existed read as before, without them).
 
-use super::{read_depth_png, read_rgb_png, CameraFile};
+use super::{read_depth_png, read_mask_png, read_rgb_png, CameraFile};
 use crate::camera::RgbdFrame;
 use crate::error::{Result, SimError};
+use crate::labels::Labels;
 use autonomy::camera::PinholeCamera;
 use autonomy::math::{Isometry3, UnitQuaternion, Vector3};
 use nalgebra::{Quaternion, Translation3};
@@ -19,6 +22,8 @@ pub struct DatasetFrame {
     pub rgb: PathBuf,
     /// Depth file, relative to the folder.
     pub depth: PathBuf,
+    /// Instance and semantic mask files, relative to the folder (a dataset with masks).
+    pub masks: Option<(PathBuf, PathBuf)>,
 }
 
 /// An episode folder opened for reading.
@@ -28,6 +33,8 @@ pub struct Dataset {
     pub dir: PathBuf,
     /// camera.json.
     pub camera: CameraFile,
+    /// labels.json, in a dataset written with masks.
+    pub labels: Option<Labels>,
     /// Frames in time order.
     pub frames: Vec<DatasetFrame>,
 }
@@ -36,85 +43,137 @@ impl Dataset {
     /// Opens a folder written by [`super::DatasetWriter`] (or any TUM folder with camera.json).
     pub fn open(dir: &Path) -> Result<Self> {
         let camera = CameraFile::read(&dir.join("camera.json"))?;
-        let rgb = read_list(&dir.join("rgb.txt"), 1)?;
-        let depth = read_list(&dir.join("depth.txt"), 1)?;
-        let poses = read_trajectory(&dir.join("groundtruth.txt"))?;
-        let (mut rgb, mut depth, mut poses) = (rgb, depth, poses);
+        let labels_path = dir.join("labels.json");
+        let labels: Option<Labels> = if labels_path.exists() {
+            let text = std::fs::read_to_string(&labels_path)
+                .map_err(|e| SimError::io("cannot read", &labels_path, e))?;
+            Some(
+                serde_json::from_str(&text).map_err(|e| SimError::BadDataset {
+                    path: labels_path.clone(),
+                    detail: format!("{e}; expected the labels.json of a splatloop dataset"),
+                })?,
+            )
+        } else {
+            None
+        };
+        let mut names = vec!["rgb.txt", "depth.txt"];
+        if labels.is_some() {
+            names.extend(["instance.txt", "semantic.txt"]);
+        }
+        let mut lists = names
+            .iter()
+            .map(|name| read_list(&dir.join(name), 1))
+            .collect::<Result<Vec<_>>>()?;
+        let mut poses = read_trajectory(&dir.join("groundtruth.txt"))?;
+        let counts: Vec<usize> = lists.iter().map(Vec::len).chain([poses.len()]).collect();
+        let least = counts.iter().copied().min().unwrap_or(0);
+        let most = counts.iter().copied().max().unwrap_or(0);
+        let described = || {
+            names
+                .iter()
+                .map(|n| n.trim_end_matches(".txt"))
+                .chain(["pose"])
+                .zip(&counts)
+                .map(|(name, count)| format!("{count} {name}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
         // A run killed between two lists' lines leaves the last frame in some lists only:
         // that torn frame is skipped, anything else is a damaged dataset.
-        let least = rgb.len().min(depth.len()).min(poses.len());
-        let most = rgb.len().max(depth.len()).max(poses.len());
         if most == least + 1 {
             tracing::warn!(
-                "{}: the last frame is torn ({} rgb, {} depth, {} pose lines; the run was stopped while writing it): reading the {least} whole frames",
+                "{}: the last frame is torn ({} lines; the run was stopped while writing it): reading the {least} whole frames",
                 dir.display(),
-                rgb.len(),
-                depth.len(),
-                poses.len()
+                described()
             );
-            rgb.truncate(least);
-            depth.truncate(least);
+            for list in &mut lists {
+                list.truncate(least);
+            }
             poses.truncate(least);
-        }
-        if rgb.len() != depth.len() || rgb.len() != poses.len() {
+        } else if most != least {
             return Err(SimError::BadDataset {
                 path: dir.to_owned(),
-                detail: format!(
-                    "{} rgb, {} depth and {} pose lines do not match",
-                    rgb.len(),
-                    depth.len(),
-                    poses.len()
-                ),
+                detail: format!("{} lines do not match", described()),
             });
         }
-        let frames = rgb
-            .into_iter()
-            .zip(depth)
-            .zip(poses)
-            .map(|(((time, rgb), (_, depth)), (_, pose))| DatasetFrame {
-                time,
+        let file = |list: usize, frame: usize| PathBuf::from(&lists[list][frame].1[0]);
+        let frames = poses
+            .iter()
+            .enumerate()
+            .map(|(i, &(_, pose))| DatasetFrame {
+                time: lists[0][i].0,
                 world_from_camera: pose,
-                rgb: PathBuf::from(&rgb[0]),
-                depth: PathBuf::from(&depth[0]),
+                rgb: file(0, i),
+                depth: file(1, i),
+                masks: (lists.len() == 4).then(|| (file(2, i), file(3, i))),
             })
             .collect();
         Ok(Dataset {
             dir: dir.to_owned(),
             camera,
+            labels,
             frames,
         })
     }
 
-    /// Loads frame `index`'s images.
-    pub fn load(&self, index: usize) -> Result<RgbdFrame> {
-        let entry = self
-            .frames
+    fn entry(&self, index: usize) -> Result<&DatasetFrame> {
+        self.frames
             .get(index)
             .ok_or_else(|| SimError::InvalidArgument {
                 what: "frame index",
                 detail: format!("{index} >= {} frames", self.frames.len()),
-            })?;
-        let (w, h, rgb) = read_rgb_png(&self.dir.join(&entry.rgb))?;
-        let (dw, dh, depth) = read_depth_png(&self.dir.join(&entry.depth))?;
+            })
+    }
+
+    /// Checks an image's size against camera.json.
+    fn check_size(&self, file: &Path, (w, h): (u32, u32)) -> Result<()> {
         let k = self.camera.intrinsics();
-        if (w, h) != (k.width, k.height) || (dw, dh) != (k.width, k.height) {
+        if (w, h) != (k.width, k.height) {
             return Err(SimError::BadDataset {
-                path: self.dir.join(&entry.rgb),
+                path: self.dir.join(file),
                 detail: format!(
-                    "images are not {}x{} as camera.json says",
+                    "the image is {w}x{h}, not {}x{} as camera.json says",
                     k.width, k.height
                 ),
             });
         }
+        Ok(())
+    }
+
+    /// Loads frame `index`'s images (its instance mask too, in a dataset with masks).
+    pub fn load(&self, index: usize) -> Result<RgbdFrame> {
+        let entry = self.entry(index)?;
+        let (w, h, rgb) = read_rgb_png(&self.dir.join(&entry.rgb))?;
+        self.check_size(&entry.rgb, (w, h))?;
+        let (w, h, depth) = read_depth_png(&self.dir.join(&entry.depth))?;
+        self.check_size(&entry.depth, (w, h))?;
+        let instance = match self.load_masks(index)? {
+            Some((instance, _)) => instance,
+            None => Vec::new(),
+        };
         Ok(RgbdFrame {
             time: entry.time,
             rgb,
             depth,
             camera: PinholeCamera {
-                intrinsics: k,
+                intrinsics: self.camera.intrinsics(),
                 world_from_camera: entry.world_from_camera,
             },
+            instance,
         })
+    }
+
+    /// Loads frame `index`'s instance and semantic masks (`None` in a dataset without masks).
+    pub fn load_masks(&self, index: usize) -> Result<Option<(Vec<u16>, Vec<u16>)>> {
+        let entry = self.entry(index)?;
+        let Some((instance_file, semantic_file)) = &entry.masks else {
+            return Ok(None);
+        };
+        let (w, h, instance) = read_mask_png(&self.dir.join(instance_file))?;
+        self.check_size(instance_file, (w, h))?;
+        let (w, h, semantic) = read_mask_png(&self.dir.join(semantic_file))?;
+        self.check_size(semantic_file, (w, h))?;
+        Ok(Some((instance, semantic)))
     }
 }
 

@@ -2,9 +2,9 @@
 //! - the new episode is written into a staging folder beside the target (`.NAME.partial`) and
 //!   takes the target's place only in `finish`, so a run that fails leaves an earlier episode
 //!   as it was;
-//! - every list (rgb.txt, depth.txt, groundtruth.txt, transforms.json's frames) is written and
-//!   flushed after its frame's images, so the counts always agree, and camera.json is written
-//!   with the first frame;
+//! - every list (rgb.txt, depth.txt, instance.txt and semantic.txt with masks, groundtruth.txt,
+//!   transforms.json's frames) is written and flushed after its frame's images, so the counts
+//!   always agree; camera.json is written with the first frame, labels.json before it;
 //! - `--overwrite` replaces only what an earlier splatloop run wrote (the manifest in its
 //!   episode.json) and refuses, naming them, when the folder holds anything else; `finish`
 //!   checks again, since a user may add files while the episode runs, and then writes the new
@@ -18,15 +18,17 @@
 //! `place`.
 
 use super::place::{files_under, Places};
-use super::{write_depth_png, write_rgb_png, CameraFile, DEPTH_SCALE};
+use super::{write_depth_png, write_mask_png, write_rgb_png, CameraFile, DEPTH_SCALE};
 use crate::camera::RgbdFrame;
 use crate::error::{Result, SimError};
+use crate::labels::Labels;
 use autonomy::math::Isometry3;
 use nalgebra::Matrix4;
 use serde::Serialize;
 use std::fs::{self, File};
 use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// What closes transforms.json after the last frame written so far.
 const TRANSFORMS_TAIL: &str = "\n  ]\n}\n";
@@ -57,6 +59,16 @@ pub struct DatasetWriter {
     fail_after: Option<usize>,
     /// The point cloud transforms.json names (the caller writes it).
     point_cloud: Option<String>,
+    /// The masks' labels and lists, when the frames carry masks.
+    masks: Option<MaskFiles>,
+}
+
+/// The masks' share of the folder: labels.json (written once), `instance/` and `semantic/`
+/// PNGs and their lists.
+struct MaskFiles {
+    labels: Arc<Labels>,
+    instance_txt: BufWriter<File>,
+    semantic_txt: BufWriter<File>,
 }
 
 #[derive(Serialize)]
@@ -155,17 +167,7 @@ impl DatasetWriter {
             let path = staging.join(sub);
             fs::create_dir_all(&path).map_err(|e| SimError::io("cannot create", &path, e))?;
         }
-        let open = |name: &str, header: &str| -> Result<BufWriter<File>> {
-            let path = staging.join(name);
-            let mut file = BufWriter::new(
-                File::create(&path).map_err(|e| SimError::io("cannot create", &path, e))?,
-            );
-            file.write_all(header.as_bytes())
-                .map_err(|e| SimError::io("cannot write", &path, e))?;
-            file.flush()
-                .map_err(|e| SimError::io("cannot write", &path, e))?;
-            Ok(file)
-        };
+        let open = |name: &str, header: &str| open_list(&staging, name, header);
         Ok(DatasetWriter {
             rgb_txt: open("rgb.txt", "# color images\n# file: splatloop\n# timestamp filename\n")?,
             depth_txt: open("depth.txt", "# depth maps\n# file: splatloop\n# timestamp filename\n")?,
@@ -185,7 +187,38 @@ impl DatasetWriter {
             frames: 0,
             fail_after: None,
             point_cloud: None,
+            masks: None,
         })
+    }
+
+    /// Writes `labels.json` and makes every frame's instance and semantic masks part of the
+    /// dataset; call before the first frame, whose masks must then come with every frame.
+    pub fn write_labels(&mut self, labels: Arc<Labels>) -> Result<()> {
+        if self.frames > 0 || self.masks.is_some() {
+            return Err(SimError::InvalidArgument {
+                what: "labels",
+                detail: "a dataset's labels are written once, before its first frame".into(),
+            });
+        }
+        for sub in ["instance", "semantic"] {
+            let path = self.dir.join(sub);
+            fs::create_dir_all(&path).map_err(|e| SimError::io("cannot create", &path, e))?;
+        }
+        write_json(&self.dir.join("labels.json"), labels.as_ref())?;
+        self.masks = Some(MaskFiles {
+            labels,
+            instance_txt: open_list(
+                &self.dir,
+                "instance.txt",
+                "# instance masks (16-bit ids of labels.json's instances, 0 = nothing)\n# file: splatloop\n# timestamp filename\n",
+            )?,
+            semantic_txt: open_list(
+                &self.dir,
+                "semantic.txt",
+                "# semantic masks (16-bit ids of labels.json's classes, 0 = nothing)\n# file: splatloop\n# timestamp filename\n",
+            )?,
+        });
+        Ok(())
     }
 
     /// Names the coloured point cloud (a PLY beside transforms.json) that transforms.json
@@ -251,22 +284,70 @@ impl DatasetWriter {
         let stamp = format!("{:.6}", frame.time);
         let pose = &frame.camera.world_from_camera;
         let (t, q) = (pose.translation.vector, pose.rotation);
-        let lines = [
+        let mut lines = vec![
             (&mut self.rgb_txt, format!("{stamp} {rgb_rel}\n"), "rgb.txt"),
             (
                 &mut self.depth_txt,
                 format!("{stamp} {depth_rel}\n"),
                 "depth.txt",
             ),
-            (
-                &mut self.groundtruth_txt,
-                format!(
-                    "{stamp} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9}\n",
-                    t.x, t.y, t.z, q.i, q.j, q.k, q.w
-                ),
-                "groundtruth.txt",
-            ),
         ];
+        match (&mut self.masks, frame.instance.is_empty()) {
+            (Some(masks), false) => {
+                if frame.instance.len() != k.pixel_count() {
+                    return Err(SimError::InvalidArgument {
+                        what: "frame",
+                        detail: format!(
+                            "its instance mask has {} pixels, its images {}",
+                            frame.instance.len(),
+                            k.pixel_count()
+                        ),
+                    });
+                }
+                let semantic = masks.labels.semantic(&frame.instance);
+                let instance_rel = format!("instance/{name}");
+                let semantic_rel = format!("semantic/{name}");
+                write_mask_png(
+                    &self.dir.join(&instance_rel),
+                    k.width,
+                    k.height,
+                    &frame.instance,
+                )?;
+                write_mask_png(&self.dir.join(&semantic_rel), k.width, k.height, &semantic)?;
+                lines.push((
+                    &mut masks.instance_txt,
+                    format!("{stamp} {instance_rel}\n"),
+                    "instance.txt",
+                ));
+                lines.push((
+                    &mut masks.semantic_txt,
+                    format!("{stamp} {semantic_rel}\n"),
+                    "semantic.txt",
+                ));
+            }
+            (None, true) => {}
+            (Some(_), true) => {
+                return Err(SimError::InvalidArgument {
+                    what: "frame",
+                    detail: "this dataset has masks, and the frame came without them".into(),
+                })
+            }
+            (None, false) => {
+                return Err(SimError::InvalidArgument {
+                    what: "frame",
+                    detail: "a frame with masks needs the dataset's labels first (write_labels)"
+                        .into(),
+                })
+            }
+        }
+        lines.push((
+            &mut self.groundtruth_txt,
+            format!(
+                "{stamp} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9}\n",
+                t.x, t.y, t.z, q.i, q.j, q.k, q.w
+            ),
+            "groundtruth.txt",
+        ));
         for (file, line, name) in lines {
             file.write_all(line.as_bytes())
                 .and_then(|()| file.flush())
@@ -398,6 +479,17 @@ impl Drop for DatasetWriter {
             let _ = fs::remove_dir_all(&self.dir);
         }
     }
+}
+
+/// Creates a list file of the dataset with its header, flushed.
+fn open_list(dir: &Path, name: &str, header: &str) -> Result<BufWriter<File>> {
+    let path = dir.join(name);
+    let mut file =
+        BufWriter::new(File::create(&path).map_err(|e| SimError::io("cannot create", &path, e))?);
+    file.write_all(header.as_bytes())
+        .and_then(|()| file.flush())
+        .map_err(|e| SimError::io("cannot write", &path, e))?;
+    Ok(file)
 }
 
 /// world_from_camera with OpenGL camera axes (x right, y up, z backward), as nerfstudio wants.

@@ -28,6 +28,8 @@ pub enum ObjKind {
     Texture,
     /// A material.
     Material,
+    /// A custom text (`<custom><text name=.. data=..>`).
+    Text,
 }
 
 impl ObjKind {
@@ -42,6 +44,7 @@ impl ObjKind {
             ObjKind::Mesh => sys::mjtObj::mjOBJ_MESH,
             ObjKind::Texture => sys::mjtObj::mjOBJ_TEXTURE,
             ObjKind::Material => sys::mjtObj::mjOBJ_MATERIAL,
+            ObjKind::Text => sys::mjtObj::mjOBJ_TEXT,
         }
     }
 
@@ -57,6 +60,7 @@ impl ObjKind {
             ObjKind::Mesh => "mesh",
             ObjKind::Texture => "texture",
             ObjKind::Material => "material",
+            ObjKind::Text => "custom text",
         }
     }
 
@@ -72,6 +76,7 @@ impl ObjKind {
             ObjKind::Mesh => m.nmesh,
             ObjKind::Texture => m.ntex,
             ObjKind::Material => m.nmat,
+            ObjKind::Text => m.ntext,
         };
         usize::try_from(n).unwrap_or(0)
     }
@@ -511,6 +516,23 @@ impl Model {
         let m = self.raw();
         let p = array(m.body_pos, 3 * m.nbody);
         [p[3 * body], p[3 * body + 1], p[3 * body + 2]]
+    }
+
+    /// The data of the custom text named `name` (`<custom><text name=".." data=".."/>`): how a
+    /// hand-made world says what it means beyond names and numbers.
+    pub fn custom_text(&self, name: &str) -> Option<String> {
+        let id = self.id(ObjKind::Text, name, "").ok()?;
+        let m = self.raw();
+        let address = usize::try_from(array(m.text_adr, m.ntext)[id]).ok()?;
+        let size = usize::try_from(array(m.text_size, m.ntext)[id]).ok()?;
+        let data = array(m.text_data, m.ntextdata);
+        let bytes: Vec<u8> = data
+            .get(address..address + size)?
+            .iter()
+            .take_while(|&&c| c != 0)
+            .map(|&c| c as u8)
+            .collect();
+        Some(String::from_utf8_lossy(&bytes).into_owned())
     }
 
     /// Visibility group of a geom (0..5).

@@ -458,6 +458,7 @@ fn write_assets(
 ) -> Result<(String, String)> {
     let (mut assets, mut geoms) = (String::new(), String::new());
     let mut copied: Vec<usize> = Vec::new();
+    let mut objects = 0usize;
     for (m, material) in materials.iter().enumerate() {
         let kd = material.diffuse.unwrap_or([0.8, 0.8, 0.8]);
         if let Some(file) = &material.diffuse_texture {
@@ -530,14 +531,37 @@ fn write_assets(
             }
             _ => String::new(),
         };
-        let name: String = piece
-            .name
-            .chars()
-            .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
-            .collect();
-        let _ = writeln!(geoms, "    <geom name=\"visual_{k}_{name}\" type=\"mesh\" mesh=\"mesh_{k}\" contype=\"0\" conaffinity=\"0\"{material}/>");
+        let name = object_name(&piece.name);
+        // An object's pieces (one per material) form one body: one instance in the masks,
+        // its class the object's name (`chair_001` -> `chair`).
+        if k == 0 || pieces[k - 1].name != piece.name {
+            if k > 0 {
+                geoms.push_str("    </body>\n");
+            }
+            objects += 1;
+            let _ = writeln!(geoms, "    <body name=\"{name}_{objects}\">");
+        }
+        let _ = writeln!(geoms, "      <geom name=\"visual_{k}_{name}\" type=\"mesh\" mesh=\"mesh_{k}\" contype=\"0\" conaffinity=\"0\"{material}/>");
+    }
+    if !pieces.is_empty() {
+        geoms.push_str("    </body>\n");
     }
     Ok((assets, geoms))
+}
+
+/// An OBJ object or group name as an MJCF name: letters and digits kept, anything else `_`;
+/// `object` for an unnamed one.
+fn object_name(name: &str) -> String {
+    let name: String = name
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    let trimmed = name.trim_matches('_');
+    if trimmed.is_empty() {
+        "object".into()
+    } else {
+        trimmed.to_owned()
+    }
 }
 
 /// MuJoCo 2.2's mj_ray misses a mesh whose vertices all lie in one plane (its convex hull is
@@ -582,7 +606,7 @@ fn mjcf(
     scene: &Path,
 ) -> String {
     let mut x = String::new();
-    let _ = writeln!(x, "<!-- Imported by `splatloop world import` from {}: visual meshes per object and material; colliders are the scene voxelised at {VOXEL} m up to {COLLIDER_TOP} m, merged into boxes (group 4, invisible). -->", scene.display());
+    let _ = writeln!(x, "<!-- Imported by `splatloop world import` from {}: visual meshes per object and material, an object's in one body named after it; colliders are the scene voxelised at {VOXEL} m up to {COLLIDER_TOP} m, merged into boxes (group 4, invisible). -->", scene.display());
     let _ = writeln!(x, "<mujoco model=\"imported\">");
     let _ = writeln!(
         x,
