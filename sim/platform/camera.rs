@@ -135,7 +135,8 @@ pub struct RgbdCamera {
     raw_depth: Vec<f32>,
     /// The world's labels, when the camera makes masks.
     labels: Option<Arc<Labels>>,
-    raw_geoms: Vec<i32>,
+    /// The instance mask as read (bottom-to-top rows).
+    raw_instance: Vec<u16>,
 }
 
 impl RgbdCamera {
@@ -175,14 +176,13 @@ impl RgbdCamera {
             raw_rgb: vec![0; 3 * pixels],
             raw_depth: vec![0.0; pixels],
             labels: None,
-            raw_geoms: Vec::new(),
+            raw_instance: Vec::new(),
         })
     }
 
     /// The camera that also renders each frame's instance mask with `labels` (a second,
     /// segmentation pass of the same camera: MuJoCo draws colour or ids, not both at once).
     pub fn with_labels(mut self, labels: Arc<Labels>) -> Self {
-        self.raw_geoms = vec![-1; self.intrinsics.pixel_count()];
         self.labels = Some(labels);
         self
     }
@@ -230,22 +230,25 @@ impl RgbdCamera {
     /// Renders the current state into `frame`, reusing its buffers: RGB-D, and the instance
     /// mask when the camera has labels.
     pub fn capture_into(&mut self, data: &Data, frame: &mut RgbdFrame) -> Result<()> {
-        self.capture_rgbd_into(data, frame)?;
-        if let Some(labels) = &self.labels {
-            self.renderer
-                .render_geom_ids(data, self.camera_id, &mut self.raw_geoms)?;
-            let w = self.intrinsics.width as usize;
-            frame.instance.resize(self.raw_geoms.len(), 0);
-            for (dst_row, src_row) in frame
-                .instance
-                .chunks_exact_mut(w)
-                .zip(self.raw_geoms.chunks_exact(w).rev())
-            {
-                for (dst, &geom) in dst_row.iter_mut().zip(src_row) {
-                    *dst = labels.instance_of_geom(geom);
-                }
-            }
-        }
+        let Some(labels) = self.labels.clone() else {
+            return self.capture_rgbd_into(data, frame);
+        };
+        self.renderer
+            .render_raw(data, self.camera_id, &mut self.raw_rgb, &mut self.raw_depth)?;
+        // The segmentation of the same scene draws while the colour and depth are converted.
+        self.renderer.start_segmentation();
+        self.finish_rgbd(data, frame);
+        let (codes, geom_of_code) = self.renderer.read_segmentation();
+        let instance_of_code: Vec<u16> = geom_of_code
+            .iter()
+            .map(|&g| labels.instance_of_geom(g))
+            .collect();
+        let w = self.intrinsics.width as usize;
+        self.raw_instance.clear();
+        self.raw_instance
+            .extend(codes.map(|code| instance_of_code.get(code).copied().unwrap_or(0)));
+        frame.instance.resize(self.raw_instance.len(), 0);
+        flip_rows(&self.raw_instance, &mut frame.instance, w);
         Ok(())
     }
 
@@ -254,6 +257,13 @@ impl RgbdCamera {
     pub fn capture_rgbd_into(&mut self, data: &Data, frame: &mut RgbdFrame) -> Result<()> {
         self.renderer
             .render_raw(data, self.camera_id, &mut self.raw_rgb, &mut self.raw_depth)?;
+        self.finish_rgbd(data, frame);
+        frame.instance.clear();
+        Ok(())
+    }
+
+    /// The raw buffers of the last render as the frame's images, pose and time.
+    fn finish_rgbd(&mut self, data: &Data, frame: &mut RgbdFrame) {
         let (w, h) = (
             self.intrinsics.width as usize,
             self.intrinsics.height as usize,
@@ -275,8 +285,6 @@ impl RgbdCamera {
                 *d = (f64::from(*d) + normal.sample(rng)).max(0.0) as f32;
             }
         }
-        frame.instance.clear();
-        Ok(())
     }
 
     /// Planar metric depth from an OpenGL depth-buffer value (DESIGN.md), 0 past the range.

@@ -204,6 +204,12 @@ impl EglContext {
         }
     }
 
+    /// This context's `glFlush`: hands the drawing queued so far to the renderer without
+    /// waiting for it, so a software rasteriser draws while the host works on.
+    pub fn gl_flush(&self) -> Option<GlFlush> {
+        load::<GlFlush>("glFlush")
+    }
+
     /// Which platform/device and GL renderer this context uses, for logs and benchmarks.
     pub fn description(&self) -> &str {
         &self.description
@@ -287,7 +293,10 @@ unsafe fn choose_config(display: sys::EGLDisplay) -> Result<sys::EGLConfig, Stri
     Err(format!("no RGB8/depth24 OpenGL config ({})", egl_error()))
 }
 
-/// Loads an EGL extension function by name.
+/// OpenGL's `glFlush`.
+pub type GlFlush = unsafe extern "C" fn();
+
+/// Loads an EGL extension (or, as Mesa and NVIDIA allow, core GL) function by name.
 fn load<F: Copy>(name: &str) -> Option<F> {
     assert_eq!(
         std::mem::size_of::<F>(),

@@ -279,53 +279,23 @@ impl DatasetWriter {
         let rgb_rel = format!("rgb/{name}");
         let depth_rel = format!("depth/{name}");
         self.check_fault(&self.dir.join(&rgb_rel))?;
-        write_rgb_png(&self.dir.join(&rgb_rel), k.width, k.height, &frame.rgb)?;
-        write_depth_png(&self.dir.join(&depth_rel), k.width, k.height, &frame.depth)?;
-        let stamp = format!("{:.6}", frame.time);
-        let pose = &frame.camera.world_from_camera;
-        let (t, q) = (pose.translation.vector, pose.rotation);
-        let mut lines = vec![
-            (&mut self.rgb_txt, format!("{stamp} {rgb_rel}\n"), "rgb.txt"),
-            (
-                &mut self.depth_txt,
-                format!("{stamp} {depth_rel}\n"),
-                "depth.txt",
-            ),
-        ];
-        match (&mut self.masks, frame.instance.is_empty()) {
-            (Some(masks), false) => {
-                if frame.instance.len() != k.pixel_count() {
-                    return Err(SimError::InvalidArgument {
-                        what: "frame",
-                        detail: format!(
-                            "its instance mask has {} pixels, its images {}",
-                            frame.instance.len(),
-                            k.pixel_count()
-                        ),
-                    });
-                }
-                let semantic = masks.labels.semantic(&frame.instance);
-                let instance_rel = format!("instance/{name}");
-                let semantic_rel = format!("semantic/{name}");
-                write_mask_png(
-                    &self.dir.join(&instance_rel),
-                    k.width,
-                    k.height,
-                    &frame.instance,
-                )?;
-                write_mask_png(&self.dir.join(&semantic_rel), k.width, k.height, &semantic)?;
-                lines.push((
-                    &mut masks.instance_txt,
-                    format!("{stamp} {instance_rel}\n"),
-                    "instance.txt",
-                ));
-                lines.push((
-                    &mut masks.semantic_txt,
-                    format!("{stamp} {semantic_rel}\n"),
-                    "semantic.txt",
-                ));
+        let masks = match (&self.masks, frame.instance.is_empty()) {
+            (Some(masks), false) if frame.instance.len() == k.pixel_count() => Some((
+                format!("instance/{name}"),
+                format!("semantic/{name}"),
+                masks.labels.semantic(&frame.instance),
+            )),
+            (Some(_), false) => {
+                return Err(SimError::InvalidArgument {
+                    what: "frame",
+                    detail: format!(
+                        "its instance mask has {} pixels, its images {}",
+                        frame.instance.len(),
+                        k.pixel_count()
+                    ),
+                })
             }
-            (None, true) => {}
+            (None, true) => None,
             (Some(_), true) => {
                 return Err(SimError::InvalidArgument {
                     what: "frame",
@@ -339,6 +309,51 @@ impl DatasetWriter {
                         .into(),
                 })
             }
+        };
+        // The frame's PNGs are encoded side by side (the camera waits for them; the pool is
+        // idle while it does); any failure is the frame's.
+        let dir = &self.dir;
+        let (images, mask_images) = rayon::join(
+            || {
+                rayon::join(
+                    || write_rgb_png(&dir.join(&rgb_rel), k.width, k.height, &frame.rgb),
+                    || write_depth_png(&dir.join(&depth_rel), k.width, k.height, &frame.depth),
+                )
+            },
+            || match &masks {
+                Some((instance_rel, semantic_rel, semantic)) => rayon::join(
+                    || write_mask_png(&dir.join(instance_rel), k.width, k.height, &frame.instance),
+                    || write_mask_png(&dir.join(semantic_rel), k.width, k.height, semantic),
+                ),
+                None => (Ok(()), Ok(())),
+            },
+        );
+        images.0?;
+        images.1?;
+        mask_images.0?;
+        mask_images.1?;
+        let stamp = format!("{:.6}", frame.time);
+        let pose = &frame.camera.world_from_camera;
+        let (t, q) = (pose.translation.vector, pose.rotation);
+        let mut lines = vec![
+            (&mut self.rgb_txt, format!("{stamp} {rgb_rel}\n"), "rgb.txt"),
+            (
+                &mut self.depth_txt,
+                format!("{stamp} {depth_rel}\n"),
+                "depth.txt",
+            ),
+        ];
+        if let (Some(files), Some((instance_rel, semantic_rel, _))) = (&mut self.masks, &masks) {
+            lines.push((
+                &mut files.instance_txt,
+                format!("{stamp} {instance_rel}\n"),
+                "instance.txt",
+            ));
+            lines.push((
+                &mut files.semantic_txt,
+                format!("{stamp} {semantic_rel}\n"),
+                "semantic.txt",
+            ));
         }
         lines.push((
             &mut self.groundtruth_txt,

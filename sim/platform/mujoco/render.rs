@@ -4,7 +4,7 @@
 
 use super::sys;
 use super::{Data, Model};
-use crate::egl::EglContext;
+use crate::egl::{EglContext, GlFlush};
 use crate::error::{Result, SimError};
 use std::sync::Arc;
 
@@ -46,6 +46,8 @@ pub struct SceneRenderer {
     width: u32,
     height: u32,
     rgb_scratch: Vec<u8>,
+    /// glFlush, to start a segmentation pass drawing before its pixels are read.
+    flush: Option<GlFlush>,
 }
 
 impl Drop for SceneRenderer {
@@ -68,7 +70,7 @@ impl SceneRenderer {
         width: u32,
         height: u32,
         flags: RenderFlags,
-        _gl: &EglContext,
+        gl: &EglContext,
     ) -> Result<Self> {
         let vis = &model.raw().vis;
         if width as i32 > vis.global.offwidth || height as i32 > vis.global.offheight {
@@ -82,7 +84,7 @@ impl SceneRenderer {
         }
         // SAFETY: mjvScene, mjrContext, mjvOption, mjvCamera and mjvPerturb are plain C structs
         // that their mj*_default* functions fully initialise; make* allocate against a valid
-        // model while the caller's GL context is current (the `_gl` borrow).
+        // model while the caller's GL context is current (the `gl` borrow).
         unsafe {
             let mut scene: Box<sys::mjvScene> = Box::default();
             sys::mjv_defaultScene(scene.as_mut());
@@ -123,6 +125,7 @@ impl SceneRenderer {
                 width,
                 height,
                 rgb_scratch: vec![0; (width * height * 3) as usize],
+                flush: gl.gl_flush(),
             })
         }
     }
@@ -148,9 +151,13 @@ impl SceneRenderer {
 
     fn draw(&mut self, data: &Data, camera: usize) {
         self.camera.fixedcamid = camera as i32;
-        let viewport = self.viewport();
+        self.update_scene(data);
+        self.render_scene();
+    }
+
+    fn update_scene(&mut self, data: &Data) {
         // SAFETY: every struct was initialised in `new`; model and data belong together
-        // (checked by the caller through Arc identity); the GL context is current.
+        // (checked by the caller through Arc identity).
         unsafe {
             sys::mjv_updateScene(
                 self.model.raw_ptr(),
@@ -161,6 +168,13 @@ impl SceneRenderer {
                 sys::mjtCatBit::mjCAT_ALL as i32,
                 self.scene.as_mut(),
             );
+        }
+    }
+
+    fn render_scene(&mut self) {
+        let viewport = self.viewport();
+        // SAFETY: the scene was updated for this model; the GL context is current.
+        unsafe {
             // Bind this renderer's own offscreen buffer: another renderer on the same GL
             // context (a second world's camera) may have bound its own since.
             sys::mjr_setBuffer(
@@ -227,34 +241,61 @@ impl SceneRenderer {
                 detail: format!("need {pixels} ids"),
             });
         }
+        self.camera.fixedcamid = camera as i32;
+        self.update_scene(data);
+        self.start_segmentation();
+        let (codes, geom_of_code) = self.read_segmentation();
+        for (id, code) in ids.iter_mut().zip(codes) {
+            *id = geom_of_code.get(code).copied().unwrap_or(-1);
+        }
+        Ok(())
+    }
+
+    /// Starts drawing the scene of the last render (the same camera, state and instant) with
+    /// segmentation colours, flushed so the renderer draws it while the caller works on;
+    /// [`SceneRenderer::read_segmentation`] reads it.
+    pub fn start_segmentation(&mut self) {
         let segment = sys::mjtRndFlag::mjRND_SEGMENT as usize;
         let idcolor = sys::mjtRndFlag::mjRND_IDCOLOR as usize;
         self.scene.flags[segment] = 1;
         self.scene.flags[idcolor] = 1;
-        self.draw(data, camera);
+        self.render_scene();
         self.scene.flags[segment] = 0;
         self.scene.flags[idcolor] = 0;
-        let mut rgb = std::mem::take(&mut self.rgb_scratch);
+        if let Some(flush) = self.flush {
+            // SAFETY: glFlush takes no arguments; the GL context this renderer draws with is
+            // current on this thread.
+            unsafe { flush() };
+        }
+    }
+
+    /// Reads the segmentation [`SceneRenderer::start_segmentation`] drew: each pixel's code
+    /// (bottom-to-top rows) and, indexed by code, the geom it shows (-1: nothing, or no geom).
+    pub fn read_segmentation(&mut self) -> (impl Iterator<Item = usize> + '_, Vec<i32>) {
         // SAFETY: the scratch buffer holds W*H*3 bytes; no depth is requested.
         unsafe {
             sys::mjr_readPixels(
-                rgb.as_mut_ptr(),
+                self.rgb_scratch.as_mut_ptr(),
                 std::ptr::null_mut(),
                 self.viewport(),
                 self.context.as_ref(),
             )
         };
         // The colour encodes 1 + the index into the scene's geom list.
-        let scene_geoms = self.scene_geoms();
-        for (id, px) in ids.iter_mut().zip(rgb.chunks_exact(3)) {
-            let segid = u32::from(px[0]) | u32::from(px[1]) << 8 | u32::from(px[2]) << 16;
-            *id = match scene_geoms.get((segid as usize).wrapping_sub(1)) {
-                Some(g) if g.objtype == sys::mjtObj::mjOBJ_GEOM as i32 => g.objid,
-                _ => -1,
-            };
-        }
-        self.rgb_scratch = rgb;
-        Ok(())
+        let geom_of_code: Vec<i32> = std::iter::once(-1)
+            .chain(self.scene_geoms().iter().map(|g| {
+                if g.objtype == sys::mjtObj::mjOBJ_GEOM as i32 {
+                    g.objid
+                } else {
+                    -1
+                }
+            }))
+            .collect();
+        let codes = self
+            .rgb_scratch
+            .chunks_exact(3)
+            .map(|px| usize::from(px[0]) | usize::from(px[1]) << 8 | usize::from(px[2]) << 16);
+        (codes, geom_of_code)
     }
 
     fn scene_geoms(&self) -> &[sys::mjvGeom] {
