@@ -353,6 +353,7 @@ pub fn build_explorer(
         PlannerKind::Fbe => Box::new(FbePlanner::new(
             FbeConfig {
                 seed: context.seed,
+                sensing_range: context.range,
                 ..FbeConfig::default()
             },
             ExecutorConfig::default(),

@@ -1,8 +1,11 @@
 //! Frontier-based exploration as AG-SLAM's baseline runs it: the evidence grid from every
 //! depth frame, frontier clusters of more than ten cells, the cluster with the highest
 //! count / (mean distance + 20), a goal pose sampled around its centroid facing it, reached
-//! through the shared executor along a shortest path over the free grid. The episode ends
-//! when no frontier is left.
+//! through the shared executor along a shortest path over the free grid. A cluster with no
+//! sampled pose (its centroid far from any free space the robot reaches: a frontier that
+//! wraps round an unseen area) gets the reachable cell nearest to it within sensing range, as
+//! the authors' planner drives to the nearest reachable free cell. The exploration ends when
+//! no frontier is left that the robot can reach that way.
 
 use super::evidence::{ClassGrid, EvidenceConfig, EvidenceGrid};
 use super::executor::{CollisionEngine, Executor, ExecutorConfig};
@@ -33,8 +36,8 @@ pub struct FbeConfig {
     pub blacklist_radius: f64,
     /// Failed plans toward one goal before it is given up.
     pub max_failures: usize,
-    /// Plans in a row with frontiers but no goal pose before the episode ends.
-    pub max_unreachable_plans: usize,
+    /// The camera's range, metres: a goal within it of a frontier cell can see that cell.
+    pub sensing_range: f64,
     /// Seed of the goal sampling.
     pub seed: u64,
 }
@@ -50,7 +53,7 @@ impl Default for FbeConfig {
             footprint_radius: 0.3,
             blacklist_radius: 0.5,
             max_failures: 3,
-            max_unreachable_plans: 5,
+            sensing_range: 5.0,
             seed: 0,
         }
     }
@@ -196,6 +199,67 @@ impl FrontierView {
         found.into_iter().map(|(_, _, c)| g.centre(c)).collect()
     }
 
+    /// The goal the authors' planner drives to when none is sampled near the centroid: the
+    /// cell with the clearance and a path from the robot that is nearest to any cell of
+    /// `cluster`, within `range` of it (ties: the shorter path, then the lower cell), facing
+    /// that nearest frontier cell. `None` when no such cell exists: the frontier cannot be
+    /// reached by the grid's free space.
+    pub fn nearest_goal(&self, cluster: &Cluster, range: f64, clearance: f64) -> Option<Pose2> {
+        let g = &self.grid;
+        let cells: Vec<[f64; 2]> = cluster.cells.iter().map(|c| g.centre(*c)).collect();
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in &cells {
+            for a in 0..2 {
+                lo[a] = lo[a].min(p[a]);
+                hi[a] = hi[a].max(p[a]);
+            }
+        }
+        let window = |a: usize| {
+            let first = ((lo[a] - range - g.origin[a]) / g.cell).floor().max(0.0) as usize;
+            let last = ((hi[a] + range - g.origin[a]) / g.cell).ceil().max(0.0) as usize;
+            first..=last.min(g.size[a].saturating_sub(1))
+        };
+        // (distance to the cluster, path length, cell, the frontier cell it faces)
+        let mut best: Option<(f64, f64, usize, [f64; 2])> = None;
+        for y in window(1) {
+            for x in window(0) {
+                let c = y * g.size[0] + x;
+                if !(self.clearance[c] >= clearance && self.distance[c].is_finite()) {
+                    continue;
+                }
+                let p = g.centre(c);
+                // The cluster's box bounds the distance from below: skip cells that cannot win.
+                let dx = (lo[0] - p[0]).max(p[0] - hi[0]).max(0.0);
+                let dy = (lo[1] - p[1]).max(p[1] - hi[1]).max(0.0);
+                let bound = dx.hypot(dy);
+                if bound > range || best.is_some_and(|b| bound > b.0) {
+                    continue;
+                }
+                let (near, d) = cells
+                    .iter()
+                    .map(|q| (*q, (q[0] - p[0]).hypot(q[1] - p[1])))
+                    .min_by(|a, b| a.1.total_cmp(&b.1))?;
+                let better = best.is_none_or(|b| {
+                    d.total_cmp(&b.0)
+                        .then(self.distance[c].total_cmp(&b.1))
+                        .then(c.cmp(&b.2))
+                        .is_lt()
+                });
+                if d <= range && better {
+                    best = Some((d, self.distance[c], c, near));
+                }
+            }
+        }
+        best.map(|(_, _, c, near)| {
+            let p = g.centre(c);
+            Pose2 {
+                x: p[0],
+                y: p[1],
+                theta: (near[1] - p[1]).atan2(near[0] - p[0]),
+            }
+        })
+    }
+
     /// Path length from the robot to `p` over the grid, metres (infinite when none).
     pub fn path_length(&self, p: [f64; 2]) -> f64 {
         self.grid
@@ -330,7 +394,6 @@ pub struct FbePlanner {
     keeper: GoalKeeper,
     rng: ChaCha8Rng,
     started: bool,
-    unreachable_plans: usize,
 }
 
 impl FbePlanner {
@@ -343,12 +406,12 @@ impl FbePlanner {
             executor: Executor::new(executor, engine),
             keeper: GoalKeeper::default(),
             started: false,
-            unreachable_plans: 0,
         }
     }
 
     /// Chooses a goal: the best open cluster by count / (d + 20) that has a goal pose with a
-    /// path; within it the sampled pose with the shortest path.
+    /// path; within it the sampled pose with the shortest path, or else the reachable cell
+    /// nearest the cluster within sensing range.
     fn choose(&mut self, view: &FrontierView, robot: Pose2) -> Option<Goal> {
         let c = &self.config;
         let open = self.keeper.open(&view.clusters, c.blacklist_radius);
@@ -362,10 +425,14 @@ impl FbePlanner {
                 c.goal_clearance,
                 &mut self.rng,
             );
-            if let Some(pose) = goals.into_iter().min_by(|a, b| {
-                view.path_length([a.x, a.y])
-                    .total_cmp(&view.path_length([b.x, b.y]))
-            }) {
+            let pose = goals
+                .into_iter()
+                .min_by(|a, b| {
+                    view.path_length([a.x, a.y])
+                        .total_cmp(&view.path_length([b.x, b.y]))
+                })
+                .or_else(|| view.nearest_goal(&chosen[i], c.sensing_range, c.goal_clearance));
+            if let Some(pose) = pose {
                 return Some(Goal {
                     pose,
                     centroid,
@@ -373,7 +440,7 @@ impl FbePlanner {
                     failures: 0,
                 });
             }
-            // No goal pose near this cluster now; it may have one once more is seen.
+            // No cell the robot can reach sees this cluster now; it may once more is seen.
         }
         None
     }
@@ -429,20 +496,19 @@ impl Planner for FbePlanner {
                     "no frontier left: every free cell the robot can reach is explored".to_owned(),
                 );
             }
-            // Frontiers without a goal pose: look around (more may open up); give up after a
-            // few tries in a row.
-            self.unreachable_plans += 1;
-            if self.unreachable_plans >= self.config.max_unreachable_plans {
-                return Decision::Done(format!(
-                    "no reachable frontier left: {} frontier clusters remain, none with a goal \
-                     pose the robot can get to after {} looks around",
-                    view.clusters.len(),
-                    self.unreachable_plans
-                ));
-            }
-            return Decision::Fail(super::PlanFailure::GoalUnreachable);
+            let visited = view.clusters.len()
+                - self
+                    .keeper
+                    .open(&view.clusters, self.config.blacklist_radius)
+                    .len();
+            return Decision::Done(format!(
+                "no reachable frontier left: {} frontier clusters remain, {visited} of them at \
+                 goals reached or given up, the others with no cell the robot can reach within \
+                 {} m (its sensing range)",
+                view.clusters.len(),
+                self.config.sensing_range
+            ));
         };
-        self.unreachable_plans = 0;
         let guidance = view.guidance(start, [goal.pose.x, goal.pose.y]);
         let sees = |p: [f64; 2]| view.grid.line_of_sight([start.x, start.y], p);
         match self.executor.drive_to(start, goal.pose, &guidance, sees) {
@@ -456,5 +522,146 @@ impl Planner for FbePlanner {
                 Decision::Fail(f)
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::explore::evidence::CellClass;
+    use std::collections::VecDeque;
+
+    /// A 16 x 16 m grid of 10 cm cells, free but for an unseen disc of radius 5.5 m round
+    /// (8, 8): its frontier is one ring whose centroid lies in the unseen middle, more than
+    /// 5 m from any cell a goal may take; the robot stands at (15, 8).
+    fn ring_world() -> (ClassGrid, Pose2) {
+        let mut grid = ClassGrid::filled([160, 160], [0.0, 0.0], 0.1, CellClass::Free);
+        for c in 0..grid.len() {
+            let p = grid.centre(c);
+            if (p[0] - 8.0).hypot(p[1] - 8.0) < 5.5 {
+                grid.classes[c] = CellClass::Unknown;
+            }
+        }
+        let robot = Pose2 {
+            x: 15.0,
+            y: 8.0,
+            theta: 0.0,
+        };
+        (grid, robot)
+    }
+
+    #[test]
+    fn a_frontier_whose_centroid_is_unseen_gets_the_nearest_reachable_goal_within_range() {
+        let (grid, robot) = ring_world();
+        let config = FbeConfig::default();
+        let view = FrontierView::new(
+            grid.clone(),
+            robot,
+            config.path_clearance,
+            config.footprint_radius,
+        );
+        assert_eq!(view.clusters.len(), 1, "one ring of frontier");
+        let cluster = &view.clusters[0];
+        // Today's give-up case: nothing within 5 m of the centroid may hold a goal.
+        let mut rng = ChaCha8Rng::seed_from_u64(0);
+        let sampled = view.sample_goals(
+            cluster.centroid,
+            config.goal_samples,
+            config.goal_radius,
+            config.goal_clearance,
+            &mut rng,
+        );
+        assert!(sampled.is_empty(), "{sampled:?}");
+
+        let mut planner = FbePlanner::new(
+            config.clone(),
+            ExecutorConfig::default(),
+            CollisionEngine::Grid,
+        );
+        let goal = planner.choose(&view, robot).expect("a goal for the ring");
+        let p = [goal.pose.x, goal.pose.y];
+
+        // Brute force: the frontier (unseen cells beside a free one), the obstacles (every
+        // cell not free), and the free cells reachable from the robot.
+        let [w, h] = grid.size;
+        let free = |c: usize| grid.classes[c] == CellClass::Free;
+        let frontier: Vec<[f64; 2]> = (0..grid.len())
+            .filter(|&c| !free(c) && grid.neighbours8(c).any(free))
+            .map(|c| grid.centre(c))
+            .collect();
+        let blocked: Vec<[f64; 2]> = (0..grid.len())
+            .filter(|&c| !free(c))
+            .map(|c| grid.centre(c))
+            .collect();
+        let mut reached = vec![false; grid.len()];
+        let start = grid.cell_of([robot.x, robot.y]).expect("on the grid");
+        let mut queue = VecDeque::from([start]);
+        reached[start] = true;
+        while let Some(c) = queue.pop_front() {
+            for n in grid.neighbours8(c) {
+                if free(n) && !reached[n] {
+                    reached[n] = true;
+                    queue.push_back(n);
+                }
+            }
+        }
+        let nearest = |p: [f64; 2], set: &[[f64; 2]]| {
+            set.iter()
+                .map(|q| (q[0] - p[0]).hypot(q[1] - p[1]))
+                .fold(f64::INFINITY, f64::min)
+        };
+        // The goal: reachable by free space, with the clearance (the grid's chamfer distance
+        // is within 8% of Euclid's), within sensing range of the frontier, facing it.
+        let cell = grid.cell_of(p).expect("on the grid");
+        assert!(reached[cell], "the goal {p:?} is reachable");
+        let edge = p[0]
+            .min(p[1])
+            .min(w as f64 * 0.1 - p[0])
+            .min(h as f64 * 0.1 - p[1]);
+        let clearance = nearest(p, &blocked).min(edge);
+        assert!(clearance >= 0.92 * config.goal_clearance, "{clearance}");
+        let to_frontier = nearest(p, &frontier);
+        assert!(to_frontier <= config.sensing_range, "{to_frontier}");
+        let faces_a_nearest_cell = frontier.iter().any(|q| {
+            let d = (q[0] - p[0]).hypot(q[1] - p[1]);
+            let bearing = (q[1] - p[1]).atan2(q[0] - p[0]);
+            d <= to_frontier + 1e-9 && wrap_angle(goal.pose.theta - bearing).abs() < 1e-6
+        });
+        assert!(
+            faces_a_nearest_cell,
+            "{goal:?} faces the frontier cell nearest it"
+        );
+        // And no reachable cell with the clearance lies much nearer the frontier: the goal is
+        // the nearest one, not just any.
+        let best = (0..grid.len())
+            .filter(|&c| reached[c])
+            .map(|c| grid.centre(c))
+            .filter(|q| (q[0] - 8.0).hypot(q[1] - 8.0) < 7.0)
+            .filter(|q| nearest(*q, &blocked) >= 1.08 * config.goal_clearance)
+            .map(|q| nearest(q, &frontier))
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            to_frontier <= best + 1e-9,
+            "goal {to_frontier} m from the frontier, best {best} m"
+        );
+        // The robot can follow a path there.
+        assert!(view.path_length(p).is_finite());
+    }
+
+    #[test]
+    fn the_exploration_ends_only_when_no_cell_the_robot_reaches_sees_a_frontier() {
+        // The ring's free space cut off from the robot by a wall: its frontier cannot be
+        // reached, so FBE says so at once instead of looking around a fixed number of times.
+        let (mut grid, robot) = ring_world();
+        for c in 0..grid.len() {
+            let p = grid.centre(c);
+            if (p[0] - 14.0).abs() < 0.15 || p[0] < 14.0 && (p[0] - 8.0).hypot(p[1] - 8.0) >= 5.5 {
+                grid.classes[c] = CellClass::Occupied;
+            }
+        }
+        let config = FbeConfig::default();
+        let view = FrontierView::new(grid, robot, config.path_clearance, config.footprint_radius);
+        let mut planner = FbePlanner::new(config, ExecutorConfig::default(), CollisionEngine::Grid);
+        assert!(planner.choose(&view, robot).is_none());
     }
 }
