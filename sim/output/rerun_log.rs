@@ -368,18 +368,17 @@ impl RerunLog {
                 &rerun::DepthImage::from_gray16(le_bytes(&units), size).with_meter(DEPTH_PER_METRE),
             )?;
             if let Some(labels) = self.labels.as_ref().filter(|_| !instance.is_empty()) {
-                let datatype = rerun::datatypes::ChannelDatatype::U16;
+                let format = rerun::datatypes::ImageFormat::segmentation(
+                    size,
+                    rerun::datatypes::ChannelDatatype::U16,
+                );
                 self.emit(
                     "world/camera/instance",
-                    &rerun::SegmentationImage::new(le_bytes(instance), size, datatype),
+                    &rerun::SegmentationImage::new(le_bytes(instance), format),
                 )?;
                 self.emit(
                     "world/camera/semantic",
-                    &rerun::SegmentationImage::new(
-                        le_bytes(&labels.semantic(instance)),
-                        size,
-                        datatype,
-                    ),
+                    &rerun::SegmentationImage::new(le_bytes(&labels.semantic(instance)), format),
                 )?;
             }
             self.emit(
