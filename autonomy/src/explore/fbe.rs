@@ -4,8 +4,9 @@
 //! through the shared executor along a shortest path over the free grid. A cluster with no
 //! sampled pose (its centroid far from any free space the robot reaches: a frontier that
 //! wraps round an unseen area) gets the reachable cell nearest to it within sensing range, as
-//! the authors' planner drives to the nearest reachable free cell. The exploration ends when
-//! no frontier is left that the robot can reach that way.
+//! the authors' planner drives to the nearest reachable free cell. A cluster still there after
+//! its goal was reached or given up is tried once more that way when nothing else is left. The
+//! exploration ends when no frontier is left that the robot can reach.
 
 use super::evidence::{ClassGrid, EvidenceConfig, EvidenceGrid};
 use super::executor::{CollisionEngine, Executor, ExecutorConfig};
@@ -394,6 +395,9 @@ pub struct FbePlanner {
     keeper: GoalKeeper,
     rng: ChaCha8Rng,
     started: bool,
+    /// Centroids of visited clusters that were given a second goal (the reachable cell nearest
+    /// them): each is retried once.
+    retried: Vec<[f64; 2]>,
 }
 
 impl FbePlanner {
@@ -406,6 +410,7 @@ impl FbePlanner {
             executor: Executor::new(executor, engine),
             keeper: GoalKeeper::default(),
             started: false,
+            retried: Vec::new(),
         }
     }
 
@@ -441,6 +446,33 @@ impl FbePlanner {
                 });
             }
             // No cell the robot can reach sees this cluster now; it may once more is seen.
+        }
+        self.retry_visited(view, robot)
+    }
+
+    /// Once every open cluster is out of reach: a cluster left although its goal was reached
+    /// or given up (the view from the sampled pose did not clear it) gets one more goal, the
+    /// reachable cell nearest to it within sensing range, before the exploration ends.
+    fn retry_visited(&mut self, view: &FrontierView, robot: Pose2) -> Option<Goal> {
+        let c = &self.config;
+        let near = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]) < c.blacklist_radius;
+        let open = self.keeper.open(&view.clusters, c.blacklist_radius);
+        let visited: Vec<Cluster> = (0..view.clusters.len())
+            .filter(|i| !open.contains(i))
+            .map(|i| view.clusters[i].clone())
+            .filter(|cluster| !self.retried.iter().any(|r| near(*r, cluster.centroid)))
+            .collect();
+        for (i, utility) in frontier::ranked(&view.grid, &visited, [robot.x, robot.y]) {
+            let centroid = visited[i].centroid;
+            self.retried.push(centroid);
+            if let Some(pose) = view.nearest_goal(&visited[i], c.sensing_range, c.goal_clearance) {
+                return Some(Goal {
+                    pose,
+                    centroid,
+                    utility,
+                    failures: 0,
+                });
+            }
         }
         None
     }
@@ -502,9 +534,10 @@ impl Planner for FbePlanner {
                     .open(&view.clusters, self.config.blacklist_radius)
                     .len();
             return Decision::Done(format!(
-                "no reachable frontier left: {} frontier clusters remain, {visited} of them at \
-                 goals reached or given up, the others with no cell the robot can reach within \
-                 {} m (its sensing range)",
+                "no reachable frontier left: {} frontier clusters remain, {visited} of them \
+                 already visited (a goal reached or given up, then once more the cell nearest \
+                 them where one was reachable), the others with no cell the robot can reach \
+                 within {} m (its sensing range)",
                 view.clusters.len(),
                 self.config.sensing_range
             ));
@@ -663,5 +696,19 @@ mod tests {
         let view = FrontierView::new(grid, robot, config.path_clearance, config.footprint_radius);
         let mut planner = FbePlanner::new(config, ExecutorConfig::default(), CollisionEngine::Grid);
         assert!(planner.choose(&view, robot).is_none());
+    }
+
+    #[test]
+    fn a_visited_cluster_that_is_still_there_is_tried_once_more_then_given_up() {
+        let (grid, robot) = ring_world();
+        let config = FbeConfig::default();
+        let view = FrontierView::new(grid, robot, config.path_clearance, config.footprint_radius);
+        let mut planner = FbePlanner::new(config, ExecutorConfig::default(), CollisionEngine::Grid);
+        // As if the ring's goal had been reached and the ring were still there.
+        planner.keeper.blacklist.push(view.clusters[0].centroid);
+        let again = planner.choose(&view, robot).expect("one more goal");
+        assert!(view.path_length([again.pose.x, again.pose.y]).is_finite());
+        planner.keeper.blacklist.push(again.centroid);
+        assert!(planner.choose(&view, robot).is_none(), "only once");
     }
 }
