@@ -73,6 +73,15 @@ def test_a_random_walk_returns_the_declared_arrays_and_the_dataset_holds_its_dep
         frame = next(dataset[i] for i in range(len(dataset)) if abs(dataset[i]["timestamp"] - time) < 1e-6)
         assert np.max(np.abs(frame["depth"] - depth)) <= 0.5 / 5000 + 1e-6
         assert np.allclose(frame["pose"], pose, atol=1e-5)
+    # Masks are on by default: uint16 ids that labels.json names, semantic = the instance's class.
+    frame, labels = dataset[0], dataset.labels
+    assert frame["instance"].dtype == np.uint16 and frame["instance"].shape == frame["depth"].shape
+    class_of = {i["id"]: i["class"] for i in labels["instances"]}
+    ids = np.unique(frame["instance"])
+    assert len(ids) >= 3 and all(i == 0 or i in class_of for i in ids)
+    expected = np.vectorize(lambda i: class_of.get(int(i), 0))(frame["instance"])
+    assert np.array_equal(frame["semantic"], expected)
+    assert "wall" in {c["name"] for c in labels["classes"]}
     env.close()
 
 
