@@ -39,9 +39,7 @@ pub fn depth_array<'py>(
     depth: &[f32],
     camera: &PinholeCamera,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let k = &camera.intrinsics;
-    let shape = [k.height as usize, k.width as usize];
-    Ok(PyArray1::from_slice(py, depth).reshape(shape)?.into_any())
+    image_array(py, depth, camera)
 }
 
 /// (H, W) uint16 ids (an instance or semantic mask).
@@ -50,9 +48,18 @@ pub fn mask_array<'py>(
     ids: &[u16],
     camera: &PinholeCamera,
 ) -> PyResult<Bound<'py, PyAny>> {
+    image_array(py, ids, camera)
+}
+
+/// One value per pixel as an (H, W) array.
+fn image_array<'py, T: numpy::Element + Copy>(
+    py: Python<'py>,
+    values: &[T],
+    camera: &PinholeCamera,
+) -> PyResult<Bound<'py, PyAny>> {
     let k = &camera.intrinsics;
     let shape = [k.height as usize, k.width as usize];
-    Ok(PyArray1::from_slice(py, ids).reshape(shape)?.into_any())
+    Ok(PyArray1::from_slice(py, values).reshape(shape)?.into_any())
 }
 
 /// (4, 4) float64 world_from_camera.

@@ -42,21 +42,11 @@ pub fn write_rgb_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result
 
 /// Writes metric depth as 16-bit PNG (0 = no return); values beyond 13.1 m saturate.
 pub fn write_depth_png(path: &Path, width: u32, height: u32, depth: &[f32]) -> Result<()> {
-    let bytes: Vec<u8> = depth
+    let units: Vec<u16> = depth
         .iter()
-        .flat_map(|&d| {
-            let units = (f64::from(d) * DEPTH_SCALE).round().clamp(0.0, 65535.0) as u16;
-            units.to_be_bytes()
-        })
+        .map(|&d| (f64::from(d) * DEPTH_SCALE).round().clamp(0.0, 65535.0) as u16)
         .collect();
-    encode(
-        path,
-        width,
-        height,
-        png::ColorType::Grayscale,
-        png::BitDepth::Sixteen,
-        &bytes,
-    )
+    write_mask_png(path, width, height, &units)
 }
 
 /// Writes a 16-bit mask (an id per pixel, 0 = nothing), rows top to bottom.
@@ -74,21 +64,26 @@ pub fn write_mask_png(path: &Path, width: u32, height: u32, ids: &[u16]) -> Resu
 
 /// Reads a 16-bit mask PNG: (width, height, ids).
 pub fn read_mask_png(path: &Path) -> Result<(u32, u32, Vec<u16>)> {
+    read_grey16(path, "mask")
+}
+
+/// Reads a 16-bit grey PNG (`what` names it in the error): (width, height, samples).
+fn read_grey16(path: &Path, what: &str) -> Result<(u32, u32, Vec<u16>)> {
     let (info, bytes) = decode(path)?;
     if info.color_type != png::ColorType::Grayscale || info.bit_depth != png::BitDepth::Sixteen {
         return Err(SimError::BadDataset {
             path: path.to_owned(),
             detail: format!(
-                "expected a 16-bit grey mask, found {:?} {:?}",
+                "expected a 16-bit grey {what}, found {:?} {:?}",
                 info.color_type, info.bit_depth
             ),
         });
     }
-    let ids = bytes
+    let samples = bytes
         .chunks_exact(2)
         .map(|b| u16::from_be_bytes([b[0], b[1]]))
         .collect();
-    Ok((info.width, info.height, ids))
+    Ok((info.width, info.height, samples))
 }
 
 fn decode(path: &Path) -> Result<(png::OutputInfo, Vec<u8>)> {
@@ -125,19 +120,10 @@ pub fn read_rgb_png(path: &Path) -> Result<(u32, u32, Vec<u8>)> {
 
 /// Reads a 16-bit depth PNG into metres: (width, height, depth).
 pub fn read_depth_png(path: &Path) -> Result<(u32, u32, Vec<f32>)> {
-    let (info, bytes) = decode(path)?;
-    if info.color_type != png::ColorType::Grayscale || info.bit_depth != png::BitDepth::Sixteen {
-        return Err(SimError::BadDataset {
-            path: path.to_owned(),
-            detail: format!(
-                "expected 16-bit grey depth, found {:?} {:?}",
-                info.color_type, info.bit_depth
-            ),
-        });
-    }
-    let depth = bytes
-        .chunks_exact(2)
-        .map(|b| (f64::from(u16::from_be_bytes([b[0], b[1]])) / DEPTH_SCALE) as f32)
+    let (width, height, units) = read_grey16(path, "depth")?;
+    let depth = units
+        .into_iter()
+        .map(|u| (f64::from(u) / DEPTH_SCALE) as f32)
         .collect();
-    Ok((info.width, info.height, depth))
+    Ok((width, height, depth))
 }
