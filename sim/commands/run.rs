@@ -103,6 +103,13 @@ pub struct RunOptions {
           default_missing_value = "true", value_name = "BOOL")]
     #[serde(default = "masks_on")]
     pub masks: bool,
+    /// Standard deviation of Gaussian noise added to every depth pixel, metres, drawn from
+    /// --seed (off when absent): a documented perturbation of the images, so that seeds give
+    /// different trajectories and a sweep can show how often a planner fails when the camera's
+    /// pixels change a little (as another OpenGL implementation changes them).
+    #[arg(long, value_name = "METRES")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth_noise: Option<f64>,
 }
 
 fn masks_on() -> bool {
@@ -158,6 +165,7 @@ impl RunArgs {
                 width: self.options.view.width,
                 height: self.options.view.height,
                 masks: self.options.masks,
+                depth_noise_sigma: self.options.depth_noise,
                 ..SensorConfig::default()
             },
             test_views: self.options.test_views,

@@ -6,6 +6,7 @@
 use super::Latency;
 use crate::robot::{DriveLimits, Pose2, UnicycleCommand};
 use autonomy::drive::wrap_angle;
+use autonomy::explore::retrace::{retrace, Trail, RETRACE_DISTANCE};
 use autonomy::explore::schedule::{self, Schedule};
 use autonomy::explore::watch::{ProgressWatch, StuckWatch};
 use autonomy::explore::{Decision, PlanFailure, Recovery};
@@ -29,6 +30,11 @@ pub struct Controller {
     pending: Option<(Schedule, Pose2)>,
     progress: ProgressWatch,
     stuck: StuckWatch,
+    /// The way the robot came, for a retrace.
+    trail: Trail,
+    /// Where the last look around for a blocked plan (every primitive collides or passes
+    /// near unseen space) began: blocked again there, the robot retraces its trail instead.
+    looked_at: Option<Pose2>,
     /// Wall seconds of the last three plans (with the mapping step's, which is known before
     /// planning starts, the compute delay a plan is planned ahead by).
     recent_plans: VecDeque<f64>,
@@ -36,6 +42,9 @@ pub struct Controller {
     pub failures: BTreeMap<String, usize>,
     /// Recovery manoeuvres started.
     pub recovery_events: usize,
+    /// Of those, retraces: drives back along the trail after a look around did not unblock
+    /// the plans.
+    pub retraces: usize,
     /// Decisions dropped because their think outlasted the lead they were planned for while
     /// the robot was moving: they start from a pose the robot is not at.
     pub late_plans: usize,
@@ -73,9 +82,12 @@ impl Controller {
             pending: None,
             progress: ProgressWatch::new(pose),
             stuck: StuckWatch::new(pose),
+            trail: Trail::new(pose),
+            looked_at: None,
             recent_plans: VecDeque::from([0.0]),
             failures: BTreeMap::new(),
             recovery_events: 0,
+            retraces: 0,
             late_plans: 0,
             start_pose_errors: Vec::new(),
         }
@@ -129,6 +141,11 @@ impl Controller {
     /// is progress).
     pub fn observe(&mut self, pose: &Pose2) {
         self.progress.observe(pose);
+    }
+
+    /// Takes in the robot's pose after a physics step: the trail a retrace follows back.
+    pub fn moved(&mut self, pose: Pose2) {
+        self.trail.push(pose);
     }
 
     /// Whether the robot made no progress for a while: the planner is overruled by a back-off.
@@ -233,13 +250,56 @@ impl Controller {
                     .map_or("no progress for 10 s".to_owned(), PlanFailure::to_string)
             );
             *self.failures.entry(name.to_owned()).or_insert(0) += 1;
-            self.pending = Some((
-                Schedule::recovery(kind, start, start_pose.theta, away, &self.limits),
-                start_pose,
-            ));
+            let schedule = match self.blocked_again(failure.as_ref(), start_pose, start) {
+                Some(retrace) => retrace,
+                None => Schedule::recovery(kind, start, start_pose.theta, away, &self.limits),
+            };
+            self.pending = Some((schedule, start_pose));
         }
         self.progress.update(time, pose, recovered);
         self.watch_stuck(time, pose, recovered)
+    }
+
+    /// A plan blocked where a look around already failed to unblock it gets a retrace: the
+    /// robot drives back along its trail, through space its body has just occupied, until
+    /// the blocked place is in the camera's view (`autonomy::explore::retrace` says why a
+    /// look around cannot cure it). `None` (a look around, remembered) otherwise.
+    fn blocked_again(
+        &mut self,
+        failure: Option<&PlanFailure>,
+        start_pose: Pose2,
+        start: f64,
+    ) -> Option<Schedule> {
+        let blocked = matches!(
+            failure,
+            Some(PlanFailure::NoCollisionFreeCandidate | PlanFailure::NoCandidateClearOfUnseen)
+        );
+        if !blocked {
+            return None;
+        }
+        let again = self
+            .looked_at
+            .is_some_and(|p| start_pose.distance([p.x, p.y]) <= StuckWatch::ESCAPE);
+        if !again {
+            self.looked_at = Some(start_pose);
+            return None;
+        }
+        let schedule = retrace(
+            &self.trail,
+            start_pose,
+            start,
+            RETRACE_DISTANCE,
+            &self.limits,
+        )?;
+        tracing::info!(
+            "t = {start:.1} s: blocked again after a look around at ({:.2}, {:.2}); retracing \
+             {RETRACE_DISTANCE} m of the way the robot came",
+            start_pose.x,
+            start_pose.y
+        );
+        self.looked_at = None;
+        self.retraces += 1;
+        Some(schedule)
     }
 
     /// The stuck watch's verdict after a think.
@@ -447,5 +507,75 @@ mod tests {
             (p.x - want.x).abs() < 1e-9 && p.y.abs() < 1e-9 && (p.theta - want.theta).abs() < 1e-9,
             "{p:?}"
         );
+    }
+
+    /// The trap's recovery: a plan blocked (every candidate passes near unseen space) where
+    /// the robot has just driven gets a look around first; blocked again there, the robot
+    /// drives back along the way it came, in bounded time, and ends a retrace's distance
+    /// back on its own path. Blocked somewhere else, it looks around first again.
+    #[test]
+    fn blocked_again_where_it_looked_around_the_robot_retraces_the_way_it_came() {
+        let origin = Pose2::default();
+        let mut c = Controller::new(origin, Latency::None, DriveLimits::default());
+        // It drove 2 m east, then along a quarter circle to the north-east.
+        let mut pose = origin;
+        for _ in 0..200 {
+            pose = autonomy::drive::advance(&pose, &FORWARD, 0.02);
+            c.moved(pose);
+        }
+        let arc = UnicycleCommand { v: 0.5, w: 0.5 };
+        for _ in 0..157 {
+            pose = autonomy::drive::advance(&pose, &arc, 0.02);
+            c.moved(pose);
+        }
+        let here = pose;
+        let blocked = || Some(Decision::Fail(PlanFailure::NoCandidateClearOfUnseen));
+        let run = |schedule: &Schedule, from: Pose2| {
+            schedule.predict(from, schedule.start, schedule.end() - schedule.start)
+        };
+        // First a look around in place.
+        c.take(blocked(), 10.0, here, here, think(0.0, 0.0), 0.0);
+        let (look, _) = c.pending.clone().expect("a look around");
+        assert!(look.commands.iter().all(|u| u.v == 0.0 && u.w != 0.0));
+        let turned = run(&look, here);
+        assert!(turned.distance([here.x, here.y]) < 1e-9);
+        // Blocked again from there: a retrace.
+        c.take(blocked(), look.end(), turned, turned, think(0.0, 0.0), 0.0);
+        assert_eq!((c.retraces, c.recovery_events), (1, 2));
+        let (back, _) = c.pending.clone().expect("a retrace");
+        assert!(back.holding_at(back.start + 1.0));
+        // Bounded: a half turn and a metre at the retrace's speed, with a second to spare.
+        let seconds = back.end() - back.start;
+        assert!(
+            seconds < std::f64::consts::PI / 0.9 + 1.0 / 0.3 + 1.0,
+            "{seconds} s"
+        );
+        // It ends RETRACE_DISTANCE back along the path: on the arc, 1 m before its end
+        // (the arc is 0.5 m x 3.14 s = 1.57 m long).
+        let mut want = Pose2::default();
+        for _ in 0..200 {
+            want = autonomy::drive::advance(&want, &FORWARD, 0.02);
+        }
+        want = autonomy::drive::advance(&want, &arc, (1.57 - RETRACE_DISTANCE) / 0.5);
+        let end = run(&back, turned);
+        assert!(end.distance([want.x, want.y]) < 0.03, "{end:?}, {want:?}");
+        // The retrace is driven: the trail loses what it retraced.
+        let mut p = turned;
+        for k in 0..(seconds / 0.02).round() as usize {
+            p = autonomy::drive::advance(&p, &back.at(back.start + (k as f64 + 0.5) * 0.02), 0.02);
+            c.moved(p);
+        }
+        // Blocked again at the new place: a look around first, not another retrace.
+        c.take(blocked(), back.end(), end, end, think(0.0, 0.0), 0.0);
+        let (look, _) = c.pending.clone().expect("a look around");
+        assert!(look.commands.iter().all(|u| u.v == 0.0));
+        assert_eq!(c.retraces, 1);
+        // Blocked again there: the next retrace goes on back (west along the straight part),
+        // not forward to where the robot was blocked before.
+        c.take(blocked(), look.end(), end, end, think(0.0, 0.0), 0.0);
+        let (back, _) = c.pending.clone().expect("a second retrace");
+        let further = run(&back, end);
+        assert_eq!(c.retraces, 2);
+        assert!(further.x < end.x - 0.5, "{end:?} -> {further:?}");
     }
 }

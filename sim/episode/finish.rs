@@ -135,6 +135,7 @@ impl Episode {
             camera_path_length: self.tally.camera_path_length,
             collision_steps: self.tally.collision_steps,
             recovery_events: self.control.recovery_events,
+            retraces: self.control.retraces,
             late_plans: self.control.late_plans,
             start_pose_error: percentiles(self.control.start_pose_errors.clone()),
             plan_failures: self.control.failures.clone(),

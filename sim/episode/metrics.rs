@@ -42,8 +42,11 @@ pub struct Metrics {
     pub camera_path_length: f64,
     /// Physics steps with a robot-world contact (floor excluded).
     pub collision_steps: usize,
-    /// Recovery events (turn in place after a planner failure, back off after no progress).
+    /// Recovery events (turn in place after a planner failure, back off after no progress,
+    /// a retrace when a look around did not unblock the plans).
     pub recovery_events: usize,
+    /// Of those, retraces: drives back along the way the robot came.
+    pub retraces: usize,
     /// Plans dropped under `--latency wall` because their think outlasted the lead they were
     /// made for while the robot moved on (always 0 with `--latency none`).
     pub late_plans: usize,

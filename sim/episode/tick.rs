@@ -696,7 +696,9 @@ impl Episode {
                 );
             }
         }
-        self.tally.moved(self.clock.step, self.world.pose());
+        let pose = self.world.pose();
+        self.tally.moved(self.clock.step, pose);
+        self.control.moved(pose);
         self.clock.step += 1;
         Ok(())
     }

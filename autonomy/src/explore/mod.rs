@@ -8,6 +8,7 @@ pub mod evidence;
 pub mod executor;
 pub mod fbe;
 pub mod frontier;
+pub mod retrace;
 pub mod schedule;
 pub mod watch;
 
@@ -106,6 +107,12 @@ pub enum PlanFailure {
     /// Every primitive from the start collides.
     #[error("every motion primitive from here collides; turn in place to look around")]
     NoCollisionFreeCandidate,
+    /// Collision-free primitives exist, but every one passes within the clearance of cells
+    /// the depth frames have not shown free (RT-GuIDE's frontier regions): the map has nothing
+    /// there to collide with because nothing there was seen. Told apart from
+    /// [`PlanFailure::NoCollisionFreeCandidate`] because its cause and cure differ.
+    #[error("every collision-free motion primitive from here passes near space not yet seen free; turn in place to look around")]
+    NoCandidateClearOfUnseen,
     /// No goal is reachable.
     #[error("no goal is reachable from here; turn in place to look around")]
     GoalUnreachable,
@@ -135,6 +142,7 @@ impl PlanFailure {
             PlanFailure::EmptyMap => "EmptyMap",
             PlanFailure::StartInCollision { .. } => "StartInCollision",
             PlanFailure::NoCollisionFreeCandidate => "NoCollisionFreeCandidate",
+            PlanFailure::NoCandidateClearOfUnseen => "NoCandidateClearOfUnseen",
             PlanFailure::GoalUnreachable => "GoalUnreachable",
         }
     }

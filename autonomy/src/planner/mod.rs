@@ -428,11 +428,14 @@ impl RtGuidePlanner {
         let (guidance, goal) = self.aim(robot, choice, view.as_ref());
         let t1 = Instant::now();
         let mut trajectories = self.executor.candidates(robot, goal);
-        if let Some(view) = view.as_ref().filter(|_| self.config.frontier_regions) {
-            trajectories = self.keep_clear_of_unseen(trajectories, view, robot, goal);
-        }
         if trajectories.is_empty() {
             return Err(PlanFailure::NoCollisionFreeCandidate);
+        }
+        if let Some(view) = view.as_ref().filter(|_| self.config.frontier_regions) {
+            trajectories = self.keep_clear_of_unseen(trajectories, view, robot, goal);
+            if trajectories.is_empty() {
+                return Err(PlanFailure::NoCandidateClearOfUnseen);
+            }
         }
         let t2 = Instant::now();
         let mut plan = self.most_informative(trajectories, guidance, goal)?;
