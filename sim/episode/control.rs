@@ -578,4 +578,130 @@ mod tests {
         assert_eq!(c.retraces, 2);
         assert!(further.x < end.x - 0.5, "{end:?} -> {further:?}");
     }
+
+    /// The trap, as a fixture: RT-GuIDE's own planner and this controller in a closed loop on
+    /// the unicycle model. The robot has driven 2 m east along a seen corridor to a strip of
+    /// floor no ray has crossed (0.45-0.6 m ahead, in the camera's blind zone: the camera
+    /// 0.2 m ahead of the axle sees the floor only from 0.7 m on), the corridor's open east
+    /// end, its frontier, beyond it. The grid never changes here, as in the blind zone it does
+    /// not: facing east every candidate passes near the strip (blocked); a look around
+    /// gives turns and short moves that end facing east again, blocked, and so on: the
+    /// failures of the reported trap, every few seconds within 0.3 m, until the stuck watch
+    /// ends the episode. The retrace takes the robot a metre back along its own path, where
+    /// the strip is in view, within a bounded time and on the path it drove.
+    #[test]
+    fn a_robot_blocked_by_unseen_floor_in_its_blind_zone_is_freed_by_the_retrace() {
+        use autonomy::explore::evidence::{EvidenceConfig, EvidenceGrid};
+        use autonomy::gaussians::Gaussians;
+        use autonomy::map::GaussianMap;
+        use autonomy::math::Point3;
+        use autonomy::planner::{CollisionEngine, PlannerConfig, RtGuidePlanner};
+
+        let strip = |x: f64| (0.45..0.6).contains(&x);
+        let corridor = |x: f64, y: f64| (-4.0..4.0).contains(&x) && y.abs() < 0.8;
+        let mut grid = EvidenceGrid::new(EvidenceConfig::default());
+        let cell = 0.05;
+        for j in -40..40 {
+            for i in -100..100 {
+                let (x, y) = ((f64::from(i) + 0.5) * cell, (f64::from(j) + 0.5) * cell);
+                if corridor(x, y) && !strip(x) {
+                    // Seen floor: a ray down to it.
+                    grid.integrate_ray(Point3::new(x, y, 0.5), Point3::new(x + 1e-3, y, 0.0));
+                } else if !corridor(x, y) && x < 4.0 && y.abs() < 1.0 {
+                    // The corridor's walls: rays that end in them at the robot's height.
+                    grid.integrate_ray(Point3::new(x + 1e-3, y, 0.3), Point3::new(x, y, 0.3));
+                }
+            }
+        }
+        // Something mapped (high on a wall, far behind): the planner plans only on a map.
+        let mut g = Gaussians::default();
+        for k in 0..400 {
+            let (i, j) = ((k % 20) as f32, (k / 20) as f32);
+            g.push([-3.5 + 0.01 * i, 0.85, 0.6 + 0.01 * j], 0.02, 0.9, [0.5; 3]);
+        }
+        let map = GaussianMap::new(g, vec![1e-3; 400]);
+        let config = PlannerConfig {
+            frontier_regions: true,
+            ..PlannerConfig::default()
+        };
+
+        // The closed loop from t = 10 s, the robot at the origin after 2 m east; `retrace`
+        // off shows the trap as it was (looks around only).
+        let run = |retrace: bool| {
+            let mut planner =
+                RtGuidePlanner::with_evidence(config.clone(), CollisionEngine::Grid, grid.clone());
+            let mut pose = Pose2 {
+                x: -2.0,
+                y: 0.0,
+                theta: 0.0,
+            };
+            let mut c = Controller::new(pose, Latency::None, DriveLimits::default());
+            while pose.x < 0.0 {
+                pose = autonomy::drive::advance(&pose, &FORWARD, 0.02);
+                c.moved(pose);
+            }
+            let mut poses = Vec::new();
+            let mut verdict = Verdict::Continue;
+            let mut time = 10.0;
+            while time < 70.0 && verdict == Verdict::Continue {
+                c.advance(time, || pose);
+                if !c.holding(time + 0.01) {
+                    let decision = autonomy::explore::Planner::plan(&mut planner, &map, pose);
+                    verdict = c.take(Some(decision), time, pose, pose, think(0.0, 0.0), 0.0);
+                    if !retrace {
+                        c.looked_at = None;
+                    }
+                }
+                for k in 0..50 {
+                    c.advance(time + 0.02 * k as f64, || pose);
+                    pose = autonomy::drive::advance(
+                        &pose,
+                        &c.command(time + 0.02 * k as f64 + 0.01),
+                        0.02,
+                    );
+                    c.moved(pose);
+                    poses.push((time + 0.02 * k as f64, pose));
+                }
+                time += 1.0;
+            }
+            (c, poses, verdict)
+        };
+
+        // Without the retrace: the reported trap.
+        let (c, poses, verdict) = run(false);
+        let blocked = c
+            .failures
+            .get("NoCandidateClearOfUnseen")
+            .copied()
+            .unwrap_or(0);
+        assert!(blocked >= 5, "{:?}", c.failures);
+        assert!(poses
+            .iter()
+            .all(|(_, p)| p.distance([0.0, 0.0]) < StuckWatch::ESCAPE));
+        assert!(
+            matches!(verdict, Verdict::Abort(ref why) if why.starts_with("stuck")),
+            "{verdict:?}"
+        );
+
+        // With it: blocked at 10 s, looked around, blocked again at 15 s 0.3 m on; the retrace
+        // takes the robot a metre back along the way it came (through the look around's arc
+        // and down the corridor) by 25 s, staying in the corridor, clear of the strip. (The
+        // grid does not change here, so the robot comes back and the cycle repeats; in an
+        // episode the camera sees the strip from there.) The stuck watch never fires.
+        let (c, poses, verdict) = run(true);
+        assert_eq!(verdict, Verdict::Continue);
+        assert!(c.retraces >= 2, "{} retraces", c.retraces);
+        let (freed, at) = poses
+            .iter()
+            .find(|(_, p)| p.x <= -0.7)
+            .copied()
+            .expect("the robot gets back down the corridor");
+        assert!(freed < 25.0, "back at {freed} s ({at:?})");
+        for (t, p) in &poses {
+            assert!(
+                p.y.abs() < 0.8 - 0.25 && p.x < 0.45 - 0.25,
+                "at {t} s: {p:?}"
+            );
+        }
+    }
 }

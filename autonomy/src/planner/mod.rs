@@ -342,6 +342,19 @@ impl RtGuidePlanner {
         }
     }
 
+    /// A planner whose evidence grid starts as `grid` instead of empty (its own settings
+    /// replaced by the grid's): for fixtures that need the robot to have seen a given floor,
+    /// as the host's trap test does.
+    pub fn with_evidence(
+        config: PlannerConfig,
+        engine: CollisionEngine,
+        grid: EvidenceGrid,
+    ) -> Self {
+        let mut planner = RtGuidePlanner::new(config, engine);
+        planner.evidence = Some(grid);
+        planner
+    }
+
     /// The topological graph.
     pub fn graph(&self) -> &TopologicalGraph {
         &self.graph
