@@ -10,12 +10,14 @@ use super::evidence::{ClassGrid, EvidenceGrid};
 use super::executor::{CollisionEngine, Executor, ExecutorConfig};
 use super::fbe::{look_around, FbeConfig, FrontierView};
 use super::frontier;
+use super::unseen::{keep_clear_of_unseen, UnseenGuard};
 use super::{Decision, Observation, Planner};
 use crate::camera::{Intrinsics, PinholeCamera};
 use crate::drive::Pose2;
 use crate::gaussians::Gaussians;
 use crate::map::GaussianMap;
 use crate::planner::information::CameraMount;
+use crate::planner::search::Trajectory;
 use crate::splat::cpu;
 use crate::splat::FISHER_PARAMETERS;
 use rand::{Rng, SeedableRng};
@@ -263,6 +265,8 @@ pub struct AgslamPlanner {
     latest: Option<PinholeCamera>,
     previous: Vec<Pose2>,
     goal: Option<Pose2>,
+    /// The body-height grid of `config.frontier.avoid_unseen` (the camera at `mount`'s height).
+    guard: Option<UnseenGuard>,
 }
 
 fn scaled(k: &Intrinsics, divisor: u32) -> Intrinsics {
@@ -292,7 +296,12 @@ impl AgslamPlanner {
         executor: ExecutorConfig,
         engine: CollisionEngine,
     ) -> Self {
+        let guard = config
+            .frontier
+            .avoid_unseen
+            .then(|| UnseenGuard::new(&executor.collision, mount.height));
         AgslamPlanner {
+            guard,
             grid: EvidenceGrid::new(config.frontier.evidence),
             rng: ChaCha8Rng::seed_from_u64(config.seed),
             mount: CameraMount {
@@ -552,6 +561,9 @@ impl Planner for AgslamPlanner {
     fn observe(&mut self, observation: &Observation<'_>, _map: &GaussianMap) {
         self.grid
             .observe(observation, self.config.frontier.footprint_radius);
+        if let Some(guard) = &mut self.guard {
+            guard.observe(observation);
+        }
         self.latest = Some(*observation.camera);
     }
 
@@ -628,7 +640,15 @@ impl AgslamPlanner {
         };
         self.goal = Some(goal);
         let sees = |p: [f64; 2]| view.grid.line_of_sight([start.x, start.y], p);
-        match self.executor.drive_to(start, goal, &guidance, sees) {
+        let unseen = self.guard.as_mut().map(|g| g.classes(start, map));
+        let keep = |t: Vec<Trajectory>, aim: [f64; 2]| match &unseen {
+            Some(grid) => keep_clear_of_unseen(t, grid, period, start, aim),
+            None => t,
+        };
+        match self
+            .executor
+            .drive_to_keeping(start, goal, &guidance, sees, keep)
+        {
             Ok(mut plan) => {
                 plan.score = score;
                 plan.candidates = scored.len();

@@ -229,6 +229,20 @@ impl Executor {
         guidance: &[[f64; 2]],
         sees: impl Fn([f64; 2]) -> bool,
     ) -> Result<Plan, PlanFailure> {
+        self.drive_to_keeping(robot, target, guidance, sees, |t, _| t)
+    }
+
+    /// [`Executor::drive_to`] with the collision-free candidates passed through `keep` (with
+    /// the A*'s goal) before the cheapest is taken, e.g. `unseen::keep_clear_of_unseen`;
+    /// [`PlanFailure::NoCandidateClearOfUnseen`] when it keeps none.
+    pub fn drive_to_keeping(
+        &self,
+        robot: Pose2,
+        target: Pose2,
+        guidance: &[[f64; 2]],
+        sees: impl Fn([f64; 2]) -> bool,
+        keep: impl FnOnce(Vec<Trajectory>, [f64; 2]) -> Vec<Trajectory>,
+    ) -> Result<Plan, PlanFailure> {
         self.check_start(&robot)?;
         let search = &self.config.search;
         if robot.distance([target.x, target.y]) <= search.goal_tolerance {
@@ -242,12 +256,16 @@ impl Executor {
         }
         let goal = visible_along(&path, search.horizon, LOOKAHEAD_STEP, sees);
         let trajectories = self.candidates(robot, goal);
+        if trajectories.is_empty() {
+            return Err(PlanFailure::NoCollisionFreeCandidate);
+        }
+        let trajectories = keep(trajectories, goal);
         let candidates = trajectories.len();
         let alternatives = trajectories.iter().map(|t| t.states.clone()).collect();
         let best = trajectories
             .into_iter()
             .next()
-            .ok_or(PlanFailure::NoCollisionFreeCandidate)?;
+            .ok_or(PlanFailure::NoCandidateClearOfUnseen)?;
         Ok(Plan {
             commands: best.controls,
             period: search.primitives.duration,

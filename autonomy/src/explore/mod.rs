@@ -10,6 +10,7 @@ pub mod fbe;
 pub mod frontier;
 pub mod retrace;
 pub mod schedule;
+pub mod unseen;
 pub mod watch;
 
 use crate::camera::PinholeCamera;

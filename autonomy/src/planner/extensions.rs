@@ -4,6 +4,7 @@
 //! as the robot sees, and candidates kept clear of cells not seen free.
 
 use super::*;
+use crate::explore::unseen::keep_clear_of_unseen;
 
 impl RtGuidePlanner {
     /// A turn in place toward a frontier target reached without facing it (see
@@ -72,11 +73,7 @@ impl RtGuidePlanner {
     }
 
     /// Sent into rooms it has not seen, the robot also keeps clear of the grid's cells not
-    /// seen free: the Gaussian check alone takes the unseen side of a table for floor, and a
-    /// hole in the Gaussians where depth rays ended for a way through. When every candidate
-    /// comes near unseen cells (the room beyond a door the robot has only glimpsed), it drives
-    /// the clear start of the one that ends nearest the goal, to look from closer, rather than
-    /// failing where it stands.
+    /// seen free (`crate::explore::unseen`).
     pub(super) fn keep_clear_of_unseen(
         &self,
         trajectories: Vec<search::Trajectory>,
@@ -84,32 +81,8 @@ impl RtGuidePlanner {
         robot: Pose2,
         goal: [f64; 2],
     ) -> Vec<search::Trajectory> {
-        let unseen = UnfreeDistance::new(&view.grid);
         let period = self.config.search.primitives.duration;
-        let clear =
-            |t: &search::Trajectory| unseen.clear_segments(t, period, UNFREE_CLEARANCE, robot);
-        let (kept, near_unseen): (Vec<_>, Vec<_>) = trajectories
-            .into_iter()
-            .partition(|t| clear(t) == t.controls.len());
-        if !kept.is_empty() {
-            return kept;
-        }
-        let prefix = |mut t: search::Trajectory| {
-            let k = clear(&t);
-            t.controls.truncate(k);
-            t.states.truncate(k + 1);
-            (k > 0).then_some(t)
-        };
-        let remaining = |t: &search::Trajectory| {
-            let end = t.states[t.states.len() - 1];
-            (end.x - goal[0]).hypot(end.y - goal[1])
-        };
-        near_unseen
-            .into_iter()
-            .filter_map(prefix)
-            .min_by(|a, b| remaining(a).total_cmp(&remaining(b)))
-            .into_iter()
-            .collect()
+        keep_clear_of_unseen(trajectories, &view.grid, period, robot, goal)
     }
 }
 
@@ -153,61 +126,6 @@ pub(super) fn look_toward(
         cost: 0.0,
         distance_to_goal: 0.0,
     })
-}
-
-/// Per cell of the evidence grid, the distance to the nearest cell not seen free: one no ray
-/// has crossed yet, or one where rays ended (an obstacle, whether the Gaussians show it yet
-/// or not).
-pub(super) struct UnfreeDistance<'a> {
-    grid: &'a ClassGrid,
-    distance: Vec<f64>,
-}
-
-impl<'a> UnfreeDistance<'a> {
-    pub(super) fn new(grid: &'a ClassGrid) -> Self {
-        let free: Vec<bool> = grid.classes.iter().map(|c| *c == CellClass::Free).collect();
-        UnfreeDistance {
-            grid,
-            distance: crate::explore::frontier::clearance(grid, &free),
-        }
-    }
-
-    /// How many of `t`'s segments, from its start, have every sample point (10 cm apart)
-    /// `radius` from cells not seen free; points within the footprint of `start` need only be
-    /// as far as `start` is (the robot stands there), points off the grid fail.
-    pub(super) fn clear_segments(
-        &self,
-        t: &search::Trajectory,
-        period: f64,
-        radius: f64,
-        start: Pose2,
-    ) -> usize {
-        let distance = |x: f64, y: f64| self.grid.cell_of([x, y]).map(|c| self.distance[c]);
-        // Within its footprint the robot may stay as near as it stands, not come nearer: a
-        // short arc (0.3 m) lies wholly inside it, and passed unchecked into a table the
-        // Gaussians had a hole in (apartment, 41 s).
-        let standing = distance(start.x, start.y).unwrap_or(0.0).min(radius);
-        t.controls
-            .iter()
-            .zip(&t.states)
-            .take_while(|(u, s)| {
-                let points = search::segment_points(s, u, period, 0.1);
-                let last = points.len().saturating_sub(1);
-                points.iter().enumerate().all(|(k, p)| {
-                    let within = (p.x - start.x).hypot(p.y - start.y) <= FOOTPRINT;
-                    // A straight drive sweeps the wheels' half width; a turn, and any pose a
-                    // turn may start from (a segment's end), the corner radius.
-                    let sweep = if u.w == 0.0 && k != last {
-                        STRAIGHT_CLEARANCE.min(radius)
-                    } else {
-                        radius
-                    };
-                    let need = if within { standing.min(sweep) } else { sweep };
-                    distance(p.x, p.y).is_some_and(|d| d >= need) || (within && standing == 0.0)
-                })
-            })
-            .count()
-    }
 }
 
 impl RtGuidePlanner {

@@ -114,8 +114,6 @@ pub fn settled_omega(iterations: usize, rate: f64) -> f64 {
     iterations as f64 * rate * 3f64.sqrt()
 }
 
-/// The robot's footprint radius marked free in the evidence grid, metres.
-const FOOTPRINT: f64 = 0.3;
 /// Clearance from occupied cells of a free-space edge, metres.
 const PATH_CLEARANCE: f64 = 0.3;
 /// A frontier viewpoint lies within this of the frontier cell it looks at, metres (FBE's goal
@@ -130,29 +128,7 @@ const FRONTIER_GOAL_CLEARANCE: f64 = 0.35;
 /// its region, on average about half a side (0.48) from the region's centre. A frontier opens
 /// that much in proportion to its length against a region's side (a whole side at most).
 const UNSEEN_UNCERTAINTY: f64 = 0.5;
-/// Candidates keep this from cells not seen free (unseen, or where a depth ray ended),
-/// metres: the chassis' corner radius (0.30 m, what a turn in place sweeps) and a cell, so
-/// that any pose a candidate reaches can be turned in place. A whole cell, not half: a ray
-/// that grazes an obstacle marks free the cells it crosses, their centres inside the
-/// obstacle's edge too, so its surface lies up to a cell nearer than the first cell not seen
-/// free; with half a cell the robot stopped 0.30 m from a cylinder whose side it had never
-/// faced and turned into it (office_02, 415 steps at 275 s). At 0.22 m from unseen cells
-/// only (the chassis' half width and a cell) the robot drove to 0.30 m of a wall it had not
-/// seen and its corner struck it as it turned (apartment_02, twice in 663 s); and a hole in
-/// the Gaussians on a table's side that depth rays had hit let it turn into the table
-/// (apartment, 41 s). Not the full collision radius: unseen cells wrap round every door jamb,
-/// and at 0.35 m no candidate through a door into an unseen room passed (office_01, before
-/// the clear-start fallback below).
-const UNFREE_CLEARANCE: f64 = 0.35;
-/// ... along a straight drive: the wheels' outer half width (0.245 m) and a little.
-const STRAIGHT_CLEARANCE: f64 = 0.27;
 
-/// Height slices of the evidence grid's free space, from 0.1 m to the camera: a cell is free
-/// once a ray has crossed it below the camera. A ray over the top of something taller than
-/// the camera proves nothing below it (office_02's 0.55 m cylinder); what is lower shows its
-/// top, whose hits mark its cells. One slice: more would ask for low rays near the robot,
-/// where the camera cannot see the floor (office_03 with 4: stuck at the spawn).
-const HEIGHT_SLICES: u32 = 1;
 /// A frontier target reached with its anchor more than this fraction of the image's half
 /// width off the optical axis gets a turn to face it first (at the edge of the image its
 /// depth rays are the fewest).
@@ -211,9 +187,10 @@ impl Default for PlannerConfig {
     }
 }
 
-use crate::explore::evidence::{CellClass, ClassGrid, EvidenceConfig, EvidenceGrid};
+use crate::explore::evidence::{ClassGrid, EvidenceConfig, EvidenceGrid};
 pub use crate::explore::executor::{CollisionEngine, Executor, ExecutorConfig};
 use crate::explore::fbe::FrontierView;
+use crate::explore::unseen::{body_evidence, FOOTPRINT};
 pub use crate::explore::{PlanFailure, Recovery};
 
 /// RT-GuIDE's plan with its diagnostics: the controls to apply, one per second.
@@ -299,25 +276,17 @@ impl RtGuidePlanner {
             engine,
         );
         let evidence = (config.free_space_edges || config.frontier_regions).then(|| {
-            // Free space is what the robot's body fits through: rays above its collision
-            // sphere's top say nothing about it, and Gaussians above it do not block it.
-            let body_top =
-                f64::from(config.collision.centre_height + config.collision.robot_radius);
-            let defaults = EvidenceConfig::default();
+            let body = body_evidence(&config.collision, config.mount.height);
             EvidenceGrid::new(EvidenceConfig {
-                free_height: body_top,
-                free_from_height: defaults.min_height,
-                height_slices: HEIGHT_SLICES,
-                slices_top: config.mount.height,
                 // The near range is for frontiers (what is seen thinly is not yet seen); with
                 // free-space edges alone the grid only finds paths, and at 2 m it found none
                 // out of the corridor fixture in 60 s.
                 free_range: if config.frontier_regions {
                     FREE_RANGE
                 } else {
-                    defaults.free_range
+                    body.free_range
                 },
-                ..defaults
+                ..body
             })
         });
         let tally = Tally::new(config.region_size);

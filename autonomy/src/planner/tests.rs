@@ -1,8 +1,10 @@
 //! RT-GuIDE's planner: frontiers first, frontier viewpoints, the tour, the finish, the unseen
 //! clearance and the aim along a graph path, on hand-made grids and maps.
 
-use super::extensions::{look_toward, UnfreeDistance};
+use super::extensions::look_toward;
 use super::*;
+use crate::explore::evidence::CellClass;
+use crate::explore::unseen::UnfreeDistance;
 
 /// A straight drive east along y = `y` for `seconds` at 0.5 m/s, one segment per second.
 fn drive_east(y: f64, seconds: usize) -> search::Trajectory {
