@@ -415,6 +415,7 @@ pub fn build_explorer(
                     seed: context.seed,
                     frontier: FbeConfig {
                         avoid_unseen: fbe.avoid_unseen,
+                        sensing_range: context.range,
                         ..AgslamConfig::default().frontier
                     },
                     ..AgslamConfig::default()

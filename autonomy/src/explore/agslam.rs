@@ -686,10 +686,28 @@ impl AgslamPlanner {
                 &mut self.rng,
             );
             goals.retain(|g| self.executor.is_free(g));
+            // FBE's rule when nothing is sampled near the centroid: the reachable cell
+            // nearest the cluster within the camera's range. Without it, a cluster whose
+            // centroid lies deep in unseen space (a warehouse's long aisles) offered no goal,
+            // the candidates were only the kept and previous goals, and the robot drove
+            // among places it had seen while the coverage stayed flat for hundreds of seconds.
+            if goals.is_empty() {
+                goals.extend(
+                    view.nearest_goal(&view.clusters[*i], fc.sensing_range, fc.goal_clearance)
+                        .filter(|g| self.executor.is_free(g)),
+                );
+            }
             if !goals.is_empty() {
                 centre = c;
                 break;
             }
+        }
+        if !ranked.is_empty() && goals.is_empty() {
+            tracing::debug!(
+                "agslam: none of {} frontier clusters has a goal pose the robot can reach; \
+                 the candidates are the kept and previous goals",
+                ranked.len()
+            );
         }
         if ranked.is_empty() {
             goals = self.refinement_goals(map, train, view);
@@ -794,5 +812,36 @@ impl AgslamPlanner {
             }
         }
         best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::explore::fbe::tests::ring_world;
+
+    /// FBE's give-up case for AG-SLAM: a frontier ring whose centroid lies more than 5 m from
+    /// any cell a goal may take. Sampling round the centroid finds nothing; the candidates
+    /// are FBE's goal, the reachable cell nearest the ring within the camera's range (before,
+    /// they were only the kept and previous goals: none on a first plan).
+    #[test]
+    fn a_frontier_whose_centroid_is_unseen_still_gives_a_candidate_goal() {
+        let (grid, robot) = ring_world();
+        let config = AgslamConfig::default();
+        let fc = config.frontier.clone();
+        let view = FrontierView::new(grid, robot, fc.path_clearance, fc.footprint_radius);
+        let mut planner = AgslamPlanner::new(
+            config,
+            CameraMount::default(),
+            ExecutorConfig::default(),
+            CollisionEngine::Grid,
+        );
+        let map = GaussianMap::new(Gaussians::default(), Vec::new());
+        let (goals, centre) = planner.candidate_goals(&map, robot, &view, &[]);
+        let nearest = view
+            .nearest_goal(&view.clusters[0], fc.sensing_range, fc.goal_clearance)
+            .expect("a reachable cell within range");
+        assert_eq!(goals, vec![nearest]);
+        assert_eq!(centre, view.clusters[0].centroid);
     }
 }

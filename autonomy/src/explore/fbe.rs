@@ -589,7 +589,7 @@ impl Planner for FbePlanner {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::explore::evidence::CellClass;
     use std::collections::VecDeque;
@@ -597,7 +597,7 @@ mod tests {
     /// A 16 x 16 m grid of 10 cm cells, free but for an unseen disc of radius 5.5 m round
     /// (8, 8): its frontier is one ring whose centroid lies in the unseen middle, more than
     /// 5 m from any cell a goal may take; the robot stands at (15, 8).
-    fn ring_world() -> (ClassGrid, Pose2) {
+    pub(crate) fn ring_world() -> (ClassGrid, Pose2) {
         let mut grid = ClassGrid::filled([160, 160], [0.0, 0.0], 0.1, CellClass::Free);
         for c in 0..grid.len() {
             let p = grid.centre(c);
