@@ -262,14 +262,6 @@ pub struct AgslamOptions {
     #[arg(long = "agslam-train", value_enum, default_value_t = TrainMode::Incremental)]
     #[serde(rename = "agslam_train")]
     pub train: TrainMode,
-    /// agslam: follow each plan until its queue of 30 actions (5 cm steps, 5 degree turns:
-    /// about 1.5 m) is driven before replanning, as the authors' loop does (on by default;
-    /// `false` replans every planning period, our earlier loop).
-    // Sweeps begun before the flag existed replanned every period: their settings lack it.
-    #[arg(long = "agslam-commit-queue", action = clap::ArgAction::Set, num_args = 0..=1,
-          default_value_t = true, default_missing_value = "true", value_name = "BOOL")]
-    #[serde(rename = "agslam_commit_queue", default)]
-    pub commit_queue: bool,
 }
 
 impl Default for AgslamOptions {
@@ -278,7 +270,6 @@ impl Default for AgslamOptions {
             pose_weight: AgslamConfig::default().pose_weight,
             candidates: AgslamConfig::default().candidates,
             train: TrainMode::Incremental,
-            commit_queue: true,
         }
     }
 }
@@ -421,7 +412,6 @@ pub fn build_explorer(
                     candidates: options.candidates,
                     pose_weight: options.pose_weight,
                     train: options.train,
-                    commit_queue: options.commit_queue,
                     seed: context.seed,
                     frontier: FbeConfig {
                         avoid_unseen: fbe.avoid_unseen,

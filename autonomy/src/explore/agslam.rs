@@ -63,12 +63,6 @@ pub struct AgslamConfig {
     pub action_length: f64,
     /// Actions a path is scored over (their 30-action plan queue).
     pub path_actions: usize,
-    /// Follow each plan until it has driven its queue of `path_actions` actions (5 cm steps
-    /// or 5 degree turns: about 1.5 m) before replanning, as the authors' loop does ("replan
-    /// when the queued actions run out"). Off, the plan is replaced every planning period:
-    /// our earlier loop, under which the chosen cluster and goal flipped from second to
-    /// second at a warehouse's doorway and the coverage stayed flat for hundreds of seconds.
-    pub commit_queue: bool,
     /// Every this many actions the path's view adds its information (5).
     pub information_every: usize,
     /// Weight of log det per action (0.2, times pose_weight / 0.5 so the ablation drops it).
@@ -104,7 +98,6 @@ impl Default for AgslamConfig {
             unseen_weight: 1e-4,
             action_length: 0.05,
             path_actions: 30,
-            commit_queue: true,
             information_every: 5,
             path_pose_weight: 0.2,
             goal_weight: 30.0,
@@ -659,9 +652,6 @@ impl AgslamPlanner {
             Ok(mut plan) => {
                 plan.score = score;
                 plan.candidates = scored.len();
-                if self.config.commit_queue {
-                    plan.commit = self.queue_seconds(&plan);
-                }
                 Decision::Go(plan)
             }
             Err(f) => {
@@ -669,28 +659,6 @@ impl AgslamPlanner {
                 Decision::Fail(f)
             }
         }
-    }
-
-    /// Seconds of `plan` its authors' queue of `path_actions` actions takes: each 5 cm driven
-    /// and each 5 degrees turned is an action (their moves), counted along the commands.
-    fn queue_seconds(&self, plan: &super::Plan) -> f64 {
-        let c = &self.config;
-        let turn_action = 5f64.to_radians();
-        let per_second = |u: &crate::drive::UnicycleCommand| {
-            u.v.abs() / c.action_length + u.w.abs() / turn_action
-        };
-        let mut left = c.path_actions as f64;
-        let mut seconds = 0.0;
-        for u in &plan.commands {
-            let rate = per_second(u);
-            let whole = rate * plan.period;
-            if rate > 0.0 && whole >= left {
-                return seconds + left / rate;
-            }
-            left -= whole;
-            seconds += plan.period;
-        }
-        seconds
     }
 
     /// Candidate goals around the best-ranked cluster (FBE's rule) that has goal poses, or
@@ -875,27 +843,5 @@ mod tests {
             .expect("a reachable cell within range");
         assert_eq!(goals, vec![nearest]);
         assert_eq!(centre, view.clusters[0].centroid);
-    }
-
-    /// The authors' queue of 30 actions: 1.5 m straight at 0.6 m/s is 2.5 s; a turn at
-    /// 0.9 rad/s makes 150 degrees in 2.91 s; a plan shorter than the queue is held whole.
-    #[test]
-    fn a_plan_is_held_for_its_queue_of_thirty_actions() {
-        use crate::drive::UnicycleCommand;
-        let planner = AgslamPlanner::new(
-            AgslamConfig::default(),
-            CameraMount::default(),
-            ExecutorConfig::default(),
-            CollisionEngine::Grid,
-        );
-        let plan = |u: UnicycleCommand, n: usize| {
-            super::super::Plan::unsearched(vec![u; n], 1.0, vec![Pose2::default(); n + 1])
-        };
-        let straight = UnicycleCommand { v: 0.6, w: 0.0 };
-        let turn = UnicycleCommand { v: 0.0, w: 0.9 };
-        assert!((planner.queue_seconds(&plan(straight, 5)) - 2.5).abs() < 1e-9);
-        let turning = 30.0 * 5f64.to_radians() / 0.9;
-        assert!((planner.queue_seconds(&plan(turn, 5)) - turning).abs() < 1e-9);
-        assert_eq!(planner.queue_seconds(&plan(straight, 2)), 2.0);
     }
 }
