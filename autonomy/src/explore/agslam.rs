@@ -638,6 +638,25 @@ impl AgslamPlanner {
         let Some((score, goal, guidance)) = best else {
             return Decision::Fail(super::PlanFailure::GoalUnreachable);
         };
+        // Which cluster and goal each plan chose: what the flat warehouse curves need read
+        // (issue 40: the robot goes back and forth at a doorway).
+        tracing::debug!(
+            "agslam: from ({:.2}, {:.2}) cluster at ({:.2}, {:.2}) of {}, goal ({:.2}, {:.2}, {:.2}) \
+             score {score:.3}{}",
+            start.x,
+            start.y,
+            centre[0],
+            centre[1],
+            view.clusters.len(),
+            goal.x,
+            goal.y,
+            goal.theta,
+            if self.goal.is_some_and(|g| g.distance([goal.x, goal.y]) < 0.1) {
+                " (kept)"
+            } else {
+                " (new)"
+            }
+        );
         self.goal = Some(goal);
         let sees = |p: [f64; 2]| view.grid.line_of_sight([start.x, start.y], p);
         let unseen = self.guard.as_mut().map(|g| g.classes(start, map));
