@@ -10,14 +10,13 @@ use super::evidence::{ClassGrid, EvidenceGrid};
 use super::executor::{CollisionEngine, Executor, ExecutorConfig};
 use super::fbe::{look_around, FbeConfig, FrontierView};
 use super::frontier;
-use super::unseen::{keep_clear_of_unseen, UnseenGuard};
+use super::unseen::UnseenGuard;
 use super::{Decision, Observation, Planner};
 use crate::camera::{Intrinsics, PinholeCamera};
 use crate::drive::Pose2;
 use crate::gaussians::Gaussians;
 use crate::map::GaussianMap;
 use crate::planner::information::CameraMount;
-use crate::planner::search::Trajectory;
 use crate::splat::cpu;
 use crate::splat::FISHER_PARAMETERS;
 use rand::{Rng, SeedableRng};
@@ -660,13 +659,9 @@ impl AgslamPlanner {
         self.goal = Some(goal);
         let sees = |p: [f64; 2]| view.grid.line_of_sight([start.x, start.y], p);
         let unseen = self.guard.as_mut().map(|g| g.classes(start, map));
-        let keep = |t: Vec<Trajectory>, aim: [f64; 2]| match &unseen {
-            Some(grid) => keep_clear_of_unseen(t, grid, period, start, aim),
-            None => t,
-        };
         match self
             .executor
-            .drive_to_keeping(start, goal, &guidance, sees, keep)
+            .drive_to(start, goal, &guidance, sees, unseen.as_ref())
         {
             Ok(mut plan) => {
                 plan.score = score;

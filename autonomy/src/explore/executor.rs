@@ -3,6 +3,8 @@
 //! or a GPU), the start check that gives a back-off heading, and the motion-primitive A* that
 //! turns a target pose and a coarse guidance path into 1 s unicycle primitives.
 
+use super::evidence::ClassGrid;
+use super::unseen::keep_clear_of_unseen;
 use super::{Plan, PlanFailure};
 use crate::drive::{wrap_angle, DriveLimits, Pose2, UnicycleCommand};
 use crate::map::{ClassifyOptions, GaussianMap};
@@ -220,28 +222,17 @@ impl Executor {
     /// Drives toward `target` along `guidance` (a polyline from the robot; the straight line
     /// when empty): the A* aims at the farthest point up to one horizon along the guidance
     /// that the robot `sees` (`visible_along`) and the cheapest complete candidate is taken.
-    /// Within the goal tolerance of the target the robot turns in place to the target's
-    /// heading instead.
+    /// With `unseen` (an `UnseenGuard`'s classes), the collision-free candidates are kept
+    /// clear of floor not seen free first (`unseen::keep_clear_of_unseen`);
+    /// [`PlanFailure::NoCandidateClearOfUnseen`] when none is. Within the goal tolerance of the
+    /// target the robot turns in place to the target's heading instead.
     pub fn drive_to(
         &self,
         robot: Pose2,
         target: Pose2,
         guidance: &[[f64; 2]],
         sees: impl Fn([f64; 2]) -> bool,
-    ) -> Result<Plan, PlanFailure> {
-        self.drive_to_keeping(robot, target, guidance, sees, |t, _| t)
-    }
-
-    /// [`Executor::drive_to`] with the collision-free candidates passed through `keep` (with
-    /// the A*'s goal) before the cheapest is taken, e.g. `unseen::keep_clear_of_unseen`;
-    /// [`PlanFailure::NoCandidateClearOfUnseen`] when it keeps none.
-    pub fn drive_to_keeping(
-        &self,
-        robot: Pose2,
-        target: Pose2,
-        guidance: &[[f64; 2]],
-        sees: impl Fn([f64; 2]) -> bool,
-        keep: impl FnOnce(Vec<Trajectory>, [f64; 2]) -> Vec<Trajectory>,
+        unseen: Option<&ClassGrid>,
     ) -> Result<Plan, PlanFailure> {
         self.check_start(&robot)?;
         let search = &self.config.search;
@@ -259,7 +250,13 @@ impl Executor {
         if trajectories.is_empty() {
             return Err(PlanFailure::NoCollisionFreeCandidate);
         }
-        let trajectories = keep(trajectories, goal);
+        let trajectories = match unseen {
+            Some(grid) => {
+                let period = search.primitives.duration;
+                keep_clear_of_unseen(trajectories, grid, period, robot, goal)
+            }
+            None => trajectories,
+        };
         let candidates = trajectories.len();
         let alternatives = trajectories.iter().map(|t| t.states.clone()).collect();
         let best = trajectories

@@ -11,11 +11,10 @@
 use super::evidence::{ClassGrid, EvidenceConfig, EvidenceGrid};
 use super::executor::{CollisionEngine, Executor, ExecutorConfig};
 use super::frontier::{self, Cluster};
-use super::unseen::{keep_clear_of_unseen, UnseenGuard};
+use super::unseen::UnseenGuard;
 use super::{Decision, Observation, Plan, Planner};
 use crate::drive::{advance, wrap_angle, Pose2, UnicycleCommand};
 use crate::map::GaussianMap;
-use crate::planner::search::Trajectory;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -567,13 +566,9 @@ impl Planner for FbePlanner {
         let guidance = view.guidance(start, [goal.pose.x, goal.pose.y]);
         let sees = |p: [f64; 2]| view.grid.line_of_sight([start.x, start.y], p);
         let unseen = self.guard.as_mut().map(|g| g.classes(start, map));
-        let keep = |t: Vec<Trajectory>, aim: [f64; 2]| match &unseen {
-            Some(grid) => keep_clear_of_unseen(t, grid, period, start, aim),
-            None => t,
-        };
         match self
             .executor
-            .drive_to_keeping(start, goal.pose, &guidance, sees, keep)
+            .drive_to(start, goal.pose, &guidance, sees, unseen.as_ref())
         {
             Ok(mut plan) => {
                 plan.score = goal.utility;
