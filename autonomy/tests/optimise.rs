@@ -3,7 +3,9 @@
 use autonomy::adam::{Adam, LearningRates};
 use autonomy::camera::{Intrinsics, PinholeCamera};
 use autonomy::gaussians::{Gaussians, Gradients};
-use autonomy::loss::{loss_generic, loss_simd, mapping_loss, RgbdSlices, Target};
+use autonomy::loss::{
+    loss_generic, loss_simd, loss_simd_in, mapping_loss, LossWorkspace, RgbdSlices, Target,
+};
 use autonomy::math::{Isometry3, Point3, Vector3};
 use autonomy::metrics::psnr;
 use autonomy::splat::cpu;
@@ -208,6 +210,66 @@ fn simd_loss_matches_the_f64_reference_and_finite_differences_at_640x480() {
                 "colour ({x}, {y}, {c}): simd {analytic}, numeric {numeric}"
             );
         }
+    }
+}
+
+#[test]
+fn a_kept_loss_workspace_gives_fresh_scratch_results_bit_for_bit_across_sizes() {
+    // The mapper keeps one workspace for every iteration (and the sizes of a run never change,
+    // but a reused Python mapper's may): stale rows or padding from an earlier call at another
+    // size must never leak into a later one.
+    let (colour, depth, target, target_depth, w, h) = vga_pair();
+    let crop = |v: &[f32], channels: usize, cw: usize, ch: usize| -> Vec<f32> {
+        (0..ch)
+            .flat_map(|y| v[y * w * channels..(y * w + cw) * channels].to_vec())
+            .collect()
+    };
+    let mut workspace = LossWorkspace::default();
+    // Full size, a crop whose width is no multiple of 8, then full size again with the images
+    // swapped (other values everywhere).
+    let cases = [
+        (w, h, false),
+        (203, 77, false),
+        (w, h, true),
+        (203, 77, true),
+    ];
+    for (cw, ch, swap) in cases {
+        let (a, b) = if swap {
+            (&target, &colour)
+        } else {
+            (&colour, &target)
+        };
+        let (rc, tc) = (crop(a, 3, cw, ch), crop(b, 3, cw, ch));
+        let (rd, td) = (crop(&depth, 1, cw, ch), crop(&target_depth, 1, cw, ch));
+        let rendered = RgbdSlices {
+            colour: &rc,
+            depth: &rd,
+        };
+        let measured = RgbdSlices {
+            colour: &tc,
+            depth: &td,
+        };
+        let (mut gc, mut gd) = (vec![0.0; 3 * cw * ch], vec![0.0; cw * ch]);
+        let fresh = loss_simd(rendered, measured, (cw, ch), &mut gc, &mut gd);
+        // The kept call's outputs start as garbage: every entry must be written.
+        let (mut kc, mut kd) = (vec![f32::NAN; 3 * cw * ch], vec![f32::NAN; cw * ch]);
+        let kept = loss_simd_in(
+            rendered,
+            measured,
+            (cw, ch),
+            &mut kc,
+            &mut kd,
+            &mut workspace,
+        );
+        assert_eq!(fresh, kept, "{cw}x{ch} swapped {swap}: terms");
+        assert!(
+            gc.iter().zip(&kc).all(|(x, y)| x.to_bits() == y.to_bits()),
+            "{cw}x{ch} swapped {swap}: colour gradient"
+        );
+        assert!(
+            gd.iter().zip(&kd).all(|(x, y)| x.to_bits() == y.to_bits()),
+            "{cw}x{ch} swapped {swap}: depth gradient"
+        );
     }
 }
 

@@ -5,7 +5,7 @@
 
 mod simd;
 
-pub use simd::loss_simd;
+pub use simd::{loss_simd, loss_simd_in, LossWorkspace};
 
 use crate::splat::{ImageGradients, Images};
 use crate::ssim::{ssim_channel, Real};
@@ -120,9 +120,25 @@ pub fn loss_generic<F: Real>(
 /// Loss of rendered images against a measured frame, and the image gradients for
 /// backpropagation through the renderer (the silhouette does not enter this loss).
 pub fn mapping_loss(rendered: &Images, target: Target<'_>) -> (LossTerms, ImageGradients) {
+    let mut grads = ImageGradients::zeros(0);
+    let terms = mapping_loss_in(rendered, target, &mut LossWorkspace::default(), &mut grads);
+    (terms, grads)
+}
+
+/// [`mapping_loss`] into the caller's gradients with the caller's scratch, as the mapper's
+/// iterations run it: after the first call at a size nothing is allocated or zeroed (fresh
+/// buffers are page-faulted in on every call; BENCHMARKS.md has what that costs).
+pub fn mapping_loss_in(
+    rendered: &Images,
+    target: Target<'_>,
+    workspace: &mut LossWorkspace,
+    grads: &mut ImageGradients,
+) -> LossTerms {
     let n = rendered.width * rendered.height;
-    let mut grads = ImageGradients::zeros(n);
-    let [depth_l1, colour_l1, ssim] = loss_simd(
+    if grads.depth.len() != n || grads.colour.len() != 3 * n || grads.silhouette.len() != n {
+        *grads = ImageGradients::zeros(n);
+    }
+    let [depth_l1, colour_l1, ssim] = loss_simd_in(
         RgbdSlices {
             colour: &rendered.colour,
             depth: &rendered.depth,
@@ -131,13 +147,11 @@ pub fn mapping_loss(rendered: &Images, target: Target<'_>) -> (LossTerms, ImageG
         (rendered.width, rendered.height),
         &mut grads.colour,
         &mut grads.depth,
+        workspace,
     );
-    (
-        LossTerms {
-            depth_l1,
-            colour_l1,
-            ssim,
-        },
-        grads,
-    )
+    LossTerms {
+        depth_l1,
+        colour_l1,
+        ssim,
+    }
 }

@@ -47,6 +47,69 @@ impl Layout {
     }
 }
 
+/// One strip's scratch rows, kept between calls in a [`LossWorkspace`].
+#[derive(Default)]
+struct StripScratch {
+    /// The products of the strip's input rows and RADIUS rows either side (phase 1).
+    inputs: Vec<f32>,
+    /// One zero-padded row per blurred quantity (FORWARD of them, BACKWARD in phase 2).
+    padded: Vec<f32>,
+    /// One blurred row per quantity, padded to whole vectors.
+    blurred: Vec<f32>,
+    /// One channel of a row of the rendered and target images and of the gradient (phase 2).
+    x_row: Vec<f32>,
+    y_row: Vec<f32>,
+    out: Vec<f32>,
+}
+
+impl StripScratch {
+    /// Sized for `layout`; rows the previous call wrote are overwritten, never read first.
+    fn fit(&mut self, layout: Layout) {
+        let span = layout.width.next_multiple_of(LANES);
+        self.inputs
+            .resize((STRIP + 2 * RADIUS) * FORWARD * layout.width, 0.0);
+        // The padding columns must be zero: blurs write only the row between them.
+        if self.padded.len() != FORWARD * layout.padded {
+            self.padded = vec![0.0; FORWARD * layout.padded];
+        }
+        self.blurred.resize(FORWARD * span, 0.0);
+        for row in [&mut self.x_row, &mut self.y_row, &mut self.out] {
+            row.resize(span, 0.0);
+        }
+    }
+}
+
+/// The SIMD loss's scratch memory, kept by the caller (the mapper keeps one) so that a call
+/// allocates and page-faults nothing: 9 derivative planes of the image (11 MB at 640x480)
+/// and each strip's rows, which fresh allocations page-fault in on every call.
+#[derive(Default)]
+pub struct LossWorkspace {
+    planes: Vec<f32>,
+    strips: Vec<StripScratch>,
+}
+
+impl std::fmt::Debug for LossWorkspace {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LossWorkspace")
+            .field("planes", &self.planes.len())
+            .field("strips", &self.strips.len())
+            .finish()
+    }
+}
+
+impl LossWorkspace {
+    /// Sized for a W x H image; every entry is written before it is read.
+    fn fit(&mut self, layout: Layout) {
+        let n = layout.width * layout.height;
+        self.planes.resize(n * 3 * BACKWARD, 0.0);
+        let strips = layout.height.div_ceil(STRIP);
+        self.strips.resize_with(strips, StripScratch::default);
+        for strip in &mut self.strips {
+            strip.fit(layout);
+        }
+    }
+}
+
 /// `out[x] = sum_t k[t] * rows[t][x]` over the rows that exist (zero padding above and below),
 /// written into `out[RADIUS..RADIUS + width]`; 8 pixels at a time, the sum in a register.
 #[inline(always)]
@@ -119,6 +182,7 @@ fn ssim_strip_forward(
     first_row: usize,
     planes: &mut [f32],
     scale: f32,
+    scratch: &mut StripScratch,
 ) -> f64 {
     let Layout { width, height, .. } = layout;
     let k = window::<f32>();
@@ -126,10 +190,13 @@ fn ssim_strip_forward(
     let lo = first_row.saturating_sub(RADIUS);
     let hi = (first_row + rows + RADIUS).min(height);
     // The products of the input rows lo..hi, one channel at a time.
-    let mut inputs = vec![0.0f32; (hi - lo) * FORWARD * width];
-    let mut padded = vec![0.0f32; FORWARD * layout.padded];
+    let StripScratch {
+        inputs,
+        padded,
+        blurred,
+        ..
+    } = scratch;
     let span = width.next_multiple_of(LANES);
-    let mut blurred = vec![0.0f32; FORWARD * span];
     let c1 = f32x8::splat(C1);
     let c2 = f32x8::splat(C2);
     let two = f32x8::splat(2.0);
@@ -208,15 +275,22 @@ fn ssim_strip_backward(
     first_row: usize,
     planes: &[f32],
     colour_grad: &mut [f32],
+    scratch: &mut StripScratch,
 ) {
     let Layout { width, height, .. } = layout;
     let k = window::<f32>();
     let rows = colour_grad.len() / (3 * width);
-    let mut padded = vec![0.0f32; BACKWARD * layout.padded];
     // One row of one channel of each image, and of the gradient, padded to whole vectors.
     let span = width.next_multiple_of(LANES);
-    let (mut x_row, mut y_row, mut out) = (vec![0.0; span], vec![0.0; span], vec![0.0; span]);
-    let mut blurred = vec![0.0f32; BACKWARD * span];
+    let StripScratch {
+        padded,
+        blurred,
+        x_row,
+        y_row,
+        out,
+        ..
+    } = scratch;
+    let blurred = &mut blurred[..BACKWARD * span];
     for row in 0..rows {
         let y = first_row + row;
         let pixels = y * width * 3..(y + 1) * width * 3;
@@ -250,7 +324,7 @@ fn ssim_strip_backward(
                 let sum = g[0] + f32x8::splat(2.0) * xs * g[1] + ys * g[2];
                 out[x0..x0 + LANES].copy_from_slice(&sum.to_array());
             }
-            for (g, v) in grads.chunks_exact_mut(3).zip(&out) {
+            for (g, v) in grads.chunks_exact_mut(3).zip(out.iter()) {
                 g[channel] += v;
             }
         }
@@ -296,19 +370,42 @@ fn l1_term(
 
 /// The loss terms (depth L1, colour L1, SSIM) of `rendered` against `target`, W x H, with the
 /// gradient of the weighted total written into `colour_grad` and `depth_grad`. Agrees with
-/// [`super::loss_generic`] to f32 rounding.
+/// [`super::loss_generic`] to f32 rounding. Allocates its scratch; [`loss_simd_in`] reuses one.
 pub fn loss_simd(
+    rendered: RgbdSlices<'_, f32>,
+    target: RgbdSlices<'_, f32>,
+    size: (usize, usize),
+    colour_grad: &mut [f32],
+    depth_grad: &mut [f32],
+) -> [f32; 3] {
+    let mut workspace = LossWorkspace::default();
+    loss_simd_in(
+        rendered,
+        target,
+        size,
+        colour_grad,
+        depth_grad,
+        &mut workspace,
+    )
+}
+
+/// [`loss_simd`] with the caller's scratch: after the first call at a size, no allocation.
+/// Every entry of `colour_grad` and `depth_grad` is overwritten.
+pub fn loss_simd_in(
     rendered: RgbdSlices<'_, f32>,
     target: RgbdSlices<'_, f32>,
     (width, height): (usize, usize),
     colour_grad: &mut [f32],
     depth_grad: &mut [f32],
+    workspace: &mut LossWorkspace,
 ) -> [f32; 3] {
     let n = width * height;
     if n == 0 {
         return [0.0, 0.0, 0.0];
     }
     let layout = Layout::new(width, height);
+    workspace.fit(layout);
+    let LossWorkspace { planes, strips } = workspace;
     // Depth: measured pixels only.
     let measured = target.depth.par_iter().filter(|d| **d > 0.0).count();
     let depth_inv = if measured > 0 {
@@ -335,12 +432,12 @@ pub fn loss_simd(
     // Phase 1: the SSIM derivative planes, and the colour L1 term into the gradient.
     let inv3 = 1.0 / (3 * n) as f32;
     let scale = -SSIM_WEIGHT / 3.0 / n as f32;
-    let mut planes = vec![0.0f32; n * 3 * BACKWARD];
     let (colour_l1, ssim_sum) = planes
         .par_chunks_mut(STRIP * width * 3 * BACKWARD)
         .zip(colour_grad.par_chunks_mut(STRIP * width * 3))
+        .zip(strips.par_iter_mut())
         .enumerate()
-        .map(|(strip, (planes, grads))| {
+        .map(|(strip, ((planes, grads), scratch))| {
             let first = strip * STRIP * width * 3;
             let range = first..first + grads.len();
             let l1 = l1_term(
@@ -357,22 +454,26 @@ pub fn loss_simd(
                 strip * STRIP,
                 planes,
                 scale,
+                scratch,
             );
             (l1, s)
         })
         .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
     // Phase 2: the derivative planes blurred back into the colour gradient.
+    let planes = &*planes;
     colour_grad
         .par_chunks_mut(STRIP * width * 3)
+        .zip(strips.par_iter_mut())
         .enumerate()
-        .for_each(|(strip, grads)| {
+        .for_each(|(strip, (grads, scratch))| {
             ssim_strip_backward(
                 rendered.colour,
                 target.colour,
                 layout,
                 strip * STRIP,
-                &planes,
+                planes,
                 grads,
+                scratch,
             );
         });
     [

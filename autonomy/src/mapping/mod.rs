@@ -12,11 +12,11 @@ pub use keyframes::Keyframe;
 use crate::adam::{Adam, LearningRates};
 use crate::camera::{Intrinsics, PinholeCamera};
 use crate::gaussians::sigmoid;
-use crate::loss::{mapping_loss, Target};
+use crate::loss::{mapping_loss_in, LossWorkspace, Target};
 use crate::map::GaussianMap;
 use crate::math::{Isometry3, Matrix3, Matrix4, Rotation3, Translation3, UnitQuaternion};
 use crate::splat::gpu::ResidentMap;
-use crate::splat::{Rasteriser, RenderError};
+use crate::splat::{ImageGradients, Rasteriser, RenderError};
 use std::time::Instant;
 use thiserror::Error;
 
@@ -229,6 +229,9 @@ pub struct Mapper {
     refine_next: usize,
     /// With the GPU engine: the map's resident copy and the views uploaded to it.
     resident: Option<ResidentViews>,
+    /// The CPU engine's loss scratch and image gradients, reused by every iteration.
+    loss_workspace: LossWorkspace,
+    image_grads: ImageGradients,
 }
 
 /// The GPU engine's resident map and which of its views hold what: the current frame's slot
@@ -254,6 +257,8 @@ impl Mapper {
             steps: 0,
             refine_next: 0,
             resident: None,
+            loss_workspace: LossWorkspace::default(),
+            image_grads: ImageGradients::zeros(0),
         }
     }
 
@@ -493,18 +498,20 @@ impl Mapper {
                 None => (frame, camera),
             };
             let render = self.engine.render(&self.map.gaussians, view_camera)?;
-            let (terms, image_grads) = mapping_loss(
+            let terms = mapping_loss_in(
                 render.images(),
                 Target {
                     colour: &view_frame.colour,
                     depth: &view_frame.depth,
                 },
+                &mut self.loss_workspace,
+                &mut self.image_grads,
             );
             if iteration == 0 {
                 loss.0 = terms.total();
             }
             loss.1 = terms.total();
-            let grads = self.engine.backward(&render, &image_grads)?;
+            let grads = self.engine.backward(&render, &self.image_grads)?;
             for &i in &grads.touched {
                 touched[i as usize] = true;
             }

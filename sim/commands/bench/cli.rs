@@ -93,16 +93,21 @@ fn render(engine: &[EngineChoice], gaussians: &[usize], iterations: usize) -> Re
 fn loss(iterations: usize) -> Result<()> {
     let rows = crate::bench::bench_loss(&[(320, 240), (640, 480)], iterations);
     println!("threads: {}", rayon::current_num_threads());
-    println!("| resolution | reference ms | SIMD ms | speed-up |");
-    println!("|---|---:|---:|---:|");
+    println!(
+        "| resolution | reference ms | SIMD, fresh scratch ms | SIMD, kept workspace ms | \
+         kept vs reference | kept vs fresh |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|");
     for r in &rows {
         println!(
-            "| {}x{} | {:.2} | {:.2} | {:.1}x |",
+            "| {}x{} | {:.2} | {:.2} | {:.2} | {:.1}x | {:.2}x |",
             r.resolution.0,
             r.resolution.1,
             r.reference * 1e3,
             r.simd * 1e3,
-            r.reference / r.simd
+            r.kept * 1e3,
+            r.reference / r.kept,
+            r.simd / r.kept
         );
     }
     Ok(())

@@ -257,14 +257,19 @@ pub struct LossBenchRow {
     pub resolution: (u32, u32),
     /// The reference (`loss_generic` in f32: serial blurs, a task per channel).
     pub reference: f64,
-    /// `mapping_loss` (strips of rows on every core, 8 pixels per SIMD step).
+    /// `loss_simd` with fresh scratch memory each call (strips of rows on every core, 8 pixels
+    /// per SIMD step), as `mapping_loss` runs it.
     pub simd: f64,
+    /// `loss_simd_in` with a workspace kept across calls, as the mapper runs it.
+    pub kept: f64,
 }
 
 /// Times the mapping loss with its gradient on a render of the synthetic room against a
-/// render of a perturbed copy, by the reference and by the SIMD version, alternately.
+/// render of a perturbed copy, by the reference, the SIMD version with fresh scratch and with
+/// a kept workspace, in turn (each call after another's, as in a mapping iteration where the
+/// render and backward pass run between losses).
 pub fn bench_loss(resolutions: &[(u32, u32)], iterations: usize) -> Vec<LossBenchRow> {
-    use autonomy::loss::{loss_generic, loss_simd, RgbdSlices};
+    use autonomy::loss::{loss_generic, loss_simd, loss_simd_in, LossWorkspace, RgbdSlices};
     use autonomy::splat::cpu;
     use autonomy::synthetic::{room_camera, room_surface};
     let truth = room_surface(100_000, 1);
@@ -289,7 +294,8 @@ pub fn bench_loss(resolutions: &[(u32, u32)], iterations: usize) -> Vec<LossBenc
             colour: &a.colour,
             depth: &a.depth,
         };
-        let mut samples = [Vec::new(), Vec::new()];
+        let mut samples = [Vec::new(), Vec::new(), Vec::new()];
+        let mut workspace = LossWorkspace::default();
         for _ in 0..iterations.max(1) + 1 {
             let t0 = Instant::now();
             loss_generic(
@@ -308,19 +314,30 @@ pub fn bench_loss(resolutions: &[(u32, u32)], iterations: usize) -> Vec<LossBenc
                 &mut colour_grad,
                 &mut depth_grad,
             );
+            let t2 = Instant::now();
+            loss_simd_in(
+                rendered,
+                target,
+                (a.width, a.height),
+                &mut colour_grad,
+                &mut depth_grad,
+                &mut workspace,
+            );
             samples[0].push((t1 - t0).as_secs_f64());
-            samples[1].push(t1.elapsed().as_secs_f64());
+            samples[1].push((t2 - t1).as_secs_f64());
+            samples[2].push(t2.elapsed().as_secs_f64());
         }
         let median = |mut v: Vec<f64>| {
             v.remove(0); // warm-up
             v.sort_by(f64::total_cmp);
             v[v.len() / 2]
         };
-        let [reference, simd] = samples;
+        let [reference, simd, kept] = samples;
         rows.push(LossBenchRow {
             resolution: (width, height),
             reference: median(reference),
             simd: median(simd),
+            kept: median(kept),
         });
     }
     rows
