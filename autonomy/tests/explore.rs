@@ -186,6 +186,119 @@ fn with_a_low_free_height_a_ray_over_a_table_clears_only_below_it() {
     assert_eq!(agslam.class([3.025, 0.025]), CellClass::Occupied);
 }
 
+/// A wall at x = 2 m seen square-on from 0.4 m high across a 1 m wide strip, with 30 Gaussian
+/// means (more than 25, at most 50) in each cell of the column just before it: the cells rays
+/// crossed in front of a densely mapped wall.
+fn a_strip_before_a_filled_wall(config: EvidenceConfig) -> EvidenceGrid {
+    let mut grid = EvidenceGrid::new(config);
+    let mut means = Vec::new();
+    for k in 0..20 {
+        let y = 0.025 + 0.05 * k as f64;
+        for z in [0.15, 0.25, 0.35, 0.45] {
+            grid.integrate_ray(Point3::new(0.0, y, 0.4), Point3::new(2.0, y, z));
+        }
+        means.extend((0..30).map(|i| [1.975, y as f32, 0.2 + 0.005 * i as f32]));
+    }
+    grid.set_gaussians(&means);
+    grid
+}
+
+#[test]
+fn a_seen_cell_filled_with_gaussians_is_no_frontier_in_the_papers_grid() {
+    // AG-SLAM's code: more than 25 means drop a cell from free space, but its frontier asks
+    // for cells with no evidence (argmax = unknown), so such a cell is neither free nor a
+    // frontier. RT-GuIDE's grid (and the executor's guard) keep it unknown, as tuned.
+    let papers = a_strip_before_a_filled_wall(EvidenceConfig::default());
+    let body = autonomy::explore::unseen::body_evidence(
+        &autonomy::planner::collision::CollisionModel::default(),
+        0.4,
+    );
+    let rtguide = a_strip_before_a_filled_wall(body);
+    let frontier_near_the_wall = |grid: &EvidenceGrid| {
+        let g = grid.classes();
+        let free = frontier::reachable_free(&g, [1.0, 0.5]);
+        let cells = frontier::frontier_cells(&g, &free);
+        (0..g.len())
+            .filter(|c| cells[*c])
+            .filter(|c| {
+                let p = g.centre(*c);
+                p[0] > 1.9 && p[1] > 0.2 && p[1] < 0.8
+            })
+            .count()
+    };
+    for k in 4..16 {
+        let p = [1.975, 0.025 + 0.05 * k as f64];
+        assert_eq!(papers.class(p), CellClass::Occupied, "{p:?}");
+        assert_eq!(papers.class([1.925, p[1]]), CellClass::Free, "{p:?}");
+        assert_eq!(rtguide.class(p), CellClass::Unknown, "{p:?}");
+    }
+    assert_eq!(frontier_near_the_wall(&papers), 0);
+    assert!(frontier_near_the_wall(&rtguide) >= 12);
+    // More than 50 means mark it occupied in both.
+    let mut dense = a_strip_before_a_filled_wall(body);
+    let many: Vec<[f32; 3]> = (0..60)
+        .map(|i| [1.975, 0.525, 0.2 + 0.0025 * i as f32])
+        .collect();
+    dense.set_gaussians(&many);
+    assert_eq!(dense.class([1.975, 0.525]), CellClass::Occupied);
+}
+
+#[test]
+fn a_frame_votes_once_per_cell_so_rays_grazing_a_wall_do_not_outvote_its_end_points() {
+    // A 12 cm thick wall whose face (x = 2.045) lies 4.5 cm into its 5 cm cells (x in [2.0,
+    // 2.05]), seen at a slant from (1, 0, 0.4): one frame of rays to the face every 2 cm along
+    // y at four heights. Each face cell holds the ends of the rays aimed at it, and is crossed
+    // by the rays aimed further along, which reach the face through its 4.5 cm of air. Counting rays, those crossings outvote
+    // the ends, the face turns free and the wall's unseen inside becomes a frontier the whole
+    // wall long; AG-SLAM's code (end points weigh 100 crossings, frames normalised) keeps the
+    // face occupied. The same rays, one per frame, give the ray count's answer.
+    let origin = Point3::new(1.0, 0.0, 0.4);
+    let ends: Vec<Point3> = (0..150)
+        .flat_map(|k| {
+            let y = 1.0 + 0.02 * k as f64;
+            [0.15, 0.3, 0.45, 0.6].map(|z| Point3::new(2.045, y, z))
+        })
+        .collect();
+    let mut votes = EvidenceGrid::new(EvidenceConfig::default());
+    votes.integrate_frame(origin, &ends);
+    let mut counts = EvidenceGrid::new(EvidenceConfig {
+        frame_votes: false,
+        ..EvidenceConfig::default()
+    });
+    counts.integrate_frame(origin, &ends);
+    let mut by_ray = EvidenceGrid::new(EvidenceConfig::default());
+    for end in &ends {
+        by_ray.integrate_ray(origin, *end);
+    }
+    assert_eq!(by_ray.classes(), counts.classes());
+    let face = |grid: &EvidenceGrid, class: CellClass| {
+        (0..50)
+            .filter(|k| grid.class([2.025, 1.525 + 0.05 * *k as f64]) == class)
+            .count()
+    };
+    assert_eq!(face(&votes, CellClass::Occupied), 50);
+    assert!(
+        face(&counts, CellClass::Free) >= 25,
+        "counting rays, the face is mostly free: {}",
+        face(&counts, CellClass::Free)
+    );
+    // The cells before the face are free in both; behind it nothing is seen.
+    for grid in [&votes, &counts] {
+        assert_eq!(grid.class([1.975, 2.5]), CellClass::Free);
+        assert_eq!(grid.class([2.075, 2.5]), CellClass::Unknown);
+    }
+    let frontier_behind_the_face = |grid: &EvidenceGrid| {
+        let g = grid.classes();
+        let free = frontier::reachable_free(&g, [1.6, 1.5]);
+        let cells = frontier::frontier_cells(&g, &free);
+        (0..g.len())
+            .filter(|c| cells[*c] && g.centre(*c)[0] > 2.05)
+            .count()
+    };
+    assert_eq!(frontier_behind_the_face(&votes), 0);
+    assert!(frontier_behind_the_face(&counts) >= 10);
+}
+
 #[test]
 fn with_a_free_range_a_long_ray_clears_only_near_the_camera_and_still_marks_its_wall() {
     // A level ray 5 m to a wall point: with free evidence to 3 m only, the cells up to 3 m

@@ -48,6 +48,20 @@ pub struct EvidenceConfig {
     pub gaussians_unfree: u32,
     /// ... and more than this mark it occupied.
     pub gaussians_occupied: u32,
+    /// The class of a cell that rays crossed (free evidence wins) but more than
+    /// `gaussians_unfree` Gaussian means fill. The papers' grid takes it for `Occupied`:
+    /// AG-SLAM's code drops such a cell from free space, yet its frontier asks for cells with no
+    /// evidence at all, so it is no frontier. `Unknown` made it one, and a densely mapped wall
+    /// seen from a metre away was a frontier no view could clear (AG-SLAM's flat warehouse
+    /// curves, issue 40). RT-GuIDE's grid keeps `Unknown` (its frontier regions were tuned so).
+    pub filled_class: CellClass,
+    /// A frame votes once per cell: occupied if any of its rays ended there, else free (as
+    /// AG-SLAM's code weighs a frame's end points 100 to a crossing's 1 and normalises each
+    /// frame). Counting every ray instead let the rays grazing a wall's face outvote the few
+    /// ending in it: the face turned free, the wall's unseen inside became a frontier along
+    /// every thin wall, and AG-SLAM shuttled before one for hundreds of seconds (issue 40).
+    /// RT-GuIDE's grid counts rays (off; its frontier regions were tuned so).
+    pub frame_votes: bool,
 }
 
 impl Default for EvidenceConfig {
@@ -65,12 +79,14 @@ impl Default for EvidenceConfig {
             pixel_stride: 4,
             gaussians_unfree: 25,
             gaussians_occupied: 50,
+            filled_class: CellClass::Occupied,
+            frame_votes: true,
         }
     }
 }
 
 /// What a cell is believed to be.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub enum CellClass {
     /// No evidence yet.
     Unknown,
@@ -272,22 +288,61 @@ impl EvidenceGrid {
         }
         let origin = Point3::from(camera.world_from_camera.translation.vector);
         let stride = self.config.pixel_stride.max(1);
+        let mut ends = Vec::new();
         for v in (stride / 2..h).step_by(stride) {
             for u in (stride / 2..w).step_by(stride) {
                 let d = f64::from(depth[v * w + u]);
-                if !(d.is_finite() && d > 0.0) {
-                    continue;
+                if d.is_finite() && d > 0.0 {
+                    ends.push(camera.back_project_to_world(u as f64, v as f64, d));
                 }
-                let end = camera.back_project_to_world(u as f64, v as f64, d);
-                self.integrate_ray(origin, end);
+            }
+        }
+        self.integrate_frame(origin, &ends);
+    }
+
+    /// One frame's rays from `origin` to the surface points `ends`.
+    pub fn integrate_frame(&mut self, origin: Point3, ends: &[Point3]) {
+        if !self.config.frame_votes {
+            for end in ends {
+                self.integrate_ray(origin, *end);
+            }
+            return;
+        }
+        let mut cells = Vec::new();
+        for end in ends {
+            self.ray_cells(origin, *end, &mut cells);
+        }
+        // One vote per cell and frame: occupied if any ray ended in it, else free.
+        cells.sort_unstable();
+        for group in cells.chunk_by(|a, b| a.0 == b.0) {
+            let i = self.index(group[0].0);
+            if group.iter().any(|(_, hit)| *hit) {
+                self.occupied[i] += 1;
+            } else {
+                self.free[i] += 1;
             }
         }
     }
 
     /// One ray from `origin` to the surface point `end`: free evidence along it while it is
     /// below the band's top and within range, occupied evidence at its end when that lies in
-    /// the band and within range.
+    /// the band and within range (a frame of one ray).
     pub fn integrate_ray(&mut self, origin: Point3, end: Point3) {
+        let mut cells = Vec::new();
+        self.ray_cells(origin, end, &mut cells);
+        for (l, hit) in cells {
+            let i = self.index(l);
+            if hit {
+                self.occupied[i] += 1;
+            } else {
+                self.free[i] += 1;
+            }
+        }
+    }
+
+    /// The cells a ray adds evidence to, `true` for its end's occupied evidence (the grid
+    /// grown to hold them, their height slices marked).
+    fn ray_cells(&mut self, origin: Point3, end: Point3, out: &mut Vec<([i64; 2], bool)>) {
         let c = &self.config;
         let length = (end - origin).norm();
         if !(length.is_finite() && length > 0.0) {
@@ -317,7 +372,6 @@ impl EvidenceGrid {
             [la[0].min(lb[0]), la[1].min(lb[1])],
             [la[0].max(lb[0]), la[1].max(lb[1])],
         );
-        let end_cell = self.index(lb);
         let mut cells = Vec::new();
         let along = |t: f64| {
             [
@@ -329,10 +383,10 @@ impl EvidenceGrid {
             traverse(along(t_from), along(t_free), self.config.cell, &mut cells);
         }
         for l in cells {
-            let i = self.index(l);
-            if !(hit && i == end_cell) {
-                self.free[i] += 1;
+            if !(hit && l == lb) {
+                out.push((l, false));
                 if let Some(slicing) = &self.slicing {
+                    let i = self.index(l);
                     let (t0, t1) = cell_interval(l, self.config.cell, origin, end);
                     let (t0, t1) = (t0.max(t_from), t1.min(t_free));
                     if t1 >= t0 {
@@ -342,7 +396,7 @@ impl EvidenceGrid {
             }
         }
         if hit {
-            self.occupied[end_cell] += 1;
+            out.push((lb, true));
         }
     }
 
@@ -412,7 +466,9 @@ impl EvidenceGrid {
         }
         if o >= f {
             CellClass::Occupied
-        } else if g > self.config.gaussians_unfree || !self.all_slices_seen(i) {
+        } else if g > self.config.gaussians_unfree {
+            self.config.filled_class
+        } else if !self.all_slices_seen(i) {
             CellClass::Unknown
         } else {
             CellClass::Free

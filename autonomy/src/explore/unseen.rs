@@ -48,6 +48,8 @@ pub fn body_evidence(collision: &CollisionModel, camera_height: f64) -> Evidence
         free_from_height: defaults.min_height,
         height_slices: HEIGHT_SLICES,
         slices_top: camera_height,
+        filled_class: CellClass::Unknown,
+        frame_votes: false,
         ..defaults
     }
 }
