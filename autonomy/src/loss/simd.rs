@@ -319,8 +319,8 @@ fn ssim_strip_backward(
             for x0 in (0..width).step_by(LANES) {
                 let g: [f32x8; BACKWARD] =
                     std::array::from_fn(|plane| f32x8::new(load8(&blurred[plane * span..], x0)));
-                let xs = f32x8::new(load8(&x_row, x0));
-                let ys = f32x8::new(load8(&y_row, x0));
+                let xs = f32x8::new(load8(x_row, x0));
+                let ys = f32x8::new(load8(y_row, x0));
                 let sum = g[0] + f32x8::splat(2.0) * xs * g[1] + ys * g[2];
                 out[x0..x0 + LANES].copy_from_slice(&sum.to_array());
             }
