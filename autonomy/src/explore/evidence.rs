@@ -1,7 +1,9 @@
 //! The 2D evidence grid of frontier exploration (AG-SLAM's FBE baseline): every depth ray adds
 //! free evidence to the cells it crosses below the height band's top and occupied evidence at
 //! its end when the end lies in the band; the map's Gaussian means add obstacle evidence. A
-//! cell's class is the argmax of its evidence over {unknown, occupied, free}. The grid grows
+//! cell's class is the argmax of its evidence over {unknown, occupied, free}, where (as their
+//! code weighs end points 100 to a crossing's 1 and normalises each frame) a frame votes once
+//! per cell: occupied if any of its rays ended there. The grid grows
 //! as the robot sees further, so no world size is assumed.
 
 use crate::camera::PinholeCamera;
