@@ -274,6 +274,62 @@ fn a_kept_loss_workspace_gives_fresh_scratch_results_bit_for_bit_across_sizes() 
 }
 
 #[test]
+fn the_simd_loss_is_the_same_bit_for_bit_on_any_number_of_threads() {
+    // The loss cuts the image into one band of rows per thread, and each band recomputes
+    // the rows of SSIM planes either side of it: a band edge in a new place must change no
+    // gradient entry and no term (README: thread count does not change a trajectory).
+    // Sizes: VGA, and a crop whose height leaves a short last band and rows < 11 per band.
+    let (colour, depth, target, target_depth, w, _) = vga_pair();
+    let crop = |v: &[f32], channels: usize, cw: usize, ch: usize| -> Vec<f32> {
+        (0..ch)
+            .flat_map(|y| v[y * w * channels..(y * w + cw) * channels].to_vec())
+            .collect()
+    };
+    for (cw, ch) in [(640, 480), (203, 37)] {
+        let (rc, tc) = (crop(&colour, 3, cw, ch), crop(&target, 3, cw, ch));
+        let (rd, td) = (crop(&depth, 1, cw, ch), crop(&target_depth, 1, cw, ch));
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a thread pool");
+            let (mut gc, mut gd) = (vec![f32::NAN; 3 * cw * ch], vec![f32::NAN; cw * ch]);
+            let terms = pool.install(|| {
+                loss_simd(
+                    RgbdSlices {
+                        colour: &rc,
+                        depth: &rd,
+                    },
+                    RgbdSlices {
+                        colour: &tc,
+                        depth: &td,
+                    },
+                    (cw, ch),
+                    &mut gc,
+                    &mut gd,
+                )
+            });
+            (terms, gc, gd)
+        };
+        let one = run(1);
+        for threads in [2, 5, 16] {
+            let many = run(threads);
+            assert_eq!(one.0, many.0, "{cw}x{ch}, {threads} threads: terms");
+            let same =
+                |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+            assert!(
+                same(&one.1, &many.1),
+                "{cw}x{ch}, {threads} threads: colour gradient"
+            );
+            assert!(
+                same(&one.2, &many.2),
+                "{cw}x{ch}, {threads} threads: depth gradient"
+            );
+        }
+    }
+}
+
+#[test]
 fn identical_images_have_zero_loss_and_unit_ssim() {
     let (w, h) = (30, 20);
     let mut rng = ChaCha8Rng::seed_from_u64(1);

@@ -1,240 +1,248 @@
 //! The mapping loss and its gradient in f32 on every core, 8 pixels per SIMD step: the same
 //! function as [`super::loss_generic`] (the f64-capable reference), organised for speed.
 //!
-//! SSIM needs five blurred images per channel forward (mu_x, mu_y, E[x^2], E[y^2], E[xy]) and
-//! three more backward, each an 11-tap separable blur: a few hundred multiply-adds per pixel.
-//! Rows are processed in strips of [`STRIP`] rows, one rayon task each, in two phases with a
-//! barrier between them (the backward blur of a row needs the forward results of its
-//! neighbours' rows):
-//! 1. per strip and channel: the five products of the strip's rows and the five rows either
-//!    side, blurred vertically into a zero-padded row, then horizontally 8 pixels at a time,
-//!    then SSIM and its derivatives with respect to (mu_x, E[x^2], E[xy]) per pixel, kept as
-//!    nine planes;
-//! 2. per strip and channel: those planes blurred the same way (the window is symmetric, so
-//!    the blur is its own adjoint) and combined with the L1 terms into the colour gradient.
+//! SSIM needs five blurred quantities per channel forward (mu_x, mu_y, E[x^2], E[y^2], E[xy])
+//! and three more backward, each an 11-tap separable blur: a few hundred multiply-adds per
+//! pixel, so the work is arranged to stay in the core's cache and never wait on memory. The
+//! image is cut into one band of rows per thread; a band streams down its rows once, with
+//! two rings of 11 rows:
+//! - input rows, deinterleaved into planar x and y per channel as they are first needed;
+//! - for each row `f`: the five quantities blurred vertically (the products formed on the fly
+//!   from the input ring), then horizontally (the window is symmetric: 6 multiplies, not 11),
+//!   then SSIM and its derivatives with respect to (mu_x, E[x^2], E[xy]), kept as three planes
+//!   per channel in the plane ring;
+//! - five rows behind, row `f - 5`: those planes blurred back the same way (the blur is its
+//!   own adjoint) and combined with the pixel's values into the colour gradient, which already
+//!   holds the L1 term.
+//!
+//! A band also computes the five rows of planes either side of it (its neighbours compute
+//! them too), so bands never wait on each other: with one band per thread that is 10 extra
+//! forward rows per band. Every pixel's arithmetic is the same whatever the bands are, and
+//! the sums are taken per row and added in row order, so results do not depend on the thread
+//! count, bit for bit.
 
 use super::{RgbdSlices, COLOUR_WEIGHT, SSIM_WEIGHT};
 use crate::ssim::{window, C1, C2, RADIUS};
 use rayon::prelude::*;
+use std::ops::Range;
 use wide::{f32x8, CmpGt, CmpLt};
 
-/// Rows per rayon task: 30 tasks at 480 rows, enough to balance 16 cores; the strip's input
-/// rows (STRIP + 10) stay in the core's cache.
-const STRIP: usize = 16;
 const TAPS: usize = 2 * RADIUS + 1;
 const LANES: usize = 8;
+const CHANNELS: usize = 3;
 /// Quantities blurred forward: x, y, x^2, y^2, xy.
 const FORWARD: usize = 5;
 /// Planes blurred backward per channel: dS/dmu_x, dS/dE[x^2], dS/dE[xy].
 const BACKWARD: usize = 3;
 
-/// Image size and the padded row length the horizontal blur reads from.
+/// Image size, the row length rounded up to whole vectors, and the zero-padded row length
+/// the horizontal blur reads from.
 #[derive(Clone, Copy)]
 struct Layout {
     width: usize,
     height: usize,
-    /// RADIUS zeros, the row, zeros up to a whole number of vectors, RADIUS zeros.
+    /// `width` rounded up to a multiple of LANES; entries past `width` are kept zero.
+    span: usize,
+    /// RADIUS zeros, a span, RADIUS zeros.
     padded: usize,
 }
 
 impl Layout {
     fn new(width: usize, height: usize) -> Self {
+        let span = width.next_multiple_of(LANES);
         Layout {
             width,
             height,
-            padded: width.next_multiple_of(LANES) + 2 * RADIUS,
+            span,
+            padded: span + 2 * RADIUS,
         }
     }
 }
 
-/// One strip's scratch rows, kept between calls in a [`LossWorkspace`].
+/// One band's rings and rows, kept between calls in a [`LossWorkspace`].
 #[derive(Default)]
-struct StripScratch {
-    /// The products of the strip's input rows and RADIUS rows either side (phase 1).
+struct BandScratch {
+    /// TAPS slots (row r in slot r % TAPS), each CHANNELS x (x, y) rows of `span`.
     inputs: Vec<f32>,
-    /// One zero-padded row per blurred quantity (FORWARD of them, BACKWARD in phase 2).
+    /// TAPS slots, each CHANNELS x BACKWARD derivative rows of `span`.
+    planes: Vec<f32>,
+    /// FORWARD zero-padded rows: the vertical blur writes their middle, the horizontal reads.
     padded: Vec<f32>,
-    /// One blurred row per quantity, padded to whole vectors.
-    blurred: Vec<f32>,
-    /// One channel of a row of the rendered and target images and of the gradient (phase 2).
-    x_row: Vec<f32>,
-    y_row: Vec<f32>,
+    /// The SSIM part of one row's colour gradient, per channel.
     out: Vec<f32>,
+    /// A row of zeros: the rows above and below the image.
+    zeros: Vec<f32>,
 }
 
-impl StripScratch {
-    /// Sized for `layout`; rows the previous call wrote are overwritten, never read first.
+impl BandScratch {
+    /// Sized for `layout`; ring rows are written before they are read, and their entries past
+    /// `width` are rewritten as zeros each time, so nothing from an earlier size leaks in.
     fn fit(&mut self, layout: Layout) {
-        let span = layout.width.next_multiple_of(LANES);
-        self.inputs
-            .resize((STRIP + 2 * RADIUS) * FORWARD * layout.width, 0.0);
-        // The padding columns must be zero: blurs write only the row between them.
+        let span = layout.span;
+        self.inputs.resize(TAPS * CHANNELS * 2 * span, 0.0);
+        self.planes.resize(TAPS * CHANNELS * BACKWARD * span, 0.0);
+        // Only the middle of a padded row is ever written: its ends stay zero while the
+        // length (and so the layout of the middle) stays the same.
         if self.padded.len() != FORWARD * layout.padded {
             self.padded = vec![0.0; FORWARD * layout.padded];
         }
-        self.blurred.resize(FORWARD * span, 0.0);
-        for row in [&mut self.x_row, &mut self.y_row, &mut self.out] {
-            row.resize(span, 0.0);
+        self.out.resize(CHANNELS * span, 0.0);
+        if self.zeros.len() != span {
+            self.zeros = vec![0.0; span];
         }
     }
 }
 
 /// The SIMD loss's scratch memory, kept by the caller (the mapper keeps one) so that a call
-/// allocates and page-faults nothing: 9 derivative planes of the image (11 MB at 640x480)
-/// and each strip's rows, which fresh allocations page-fault in on every call.
+/// allocates and page-faults nothing: each band's rings (about 400 KB at 640 columns, so
+/// they stay in the core's cache) and the per-row sums.
 #[derive(Default)]
 pub struct LossWorkspace {
-    planes: Vec<f32>,
-    strips: Vec<StripScratch>,
+    bands: Vec<BandScratch>,
+    /// Per row: SSIM summed over pixels and channels, colour L1, depth L1.
+    row_sums: Vec<[f64; 3]>,
 }
 
 impl std::fmt::Debug for LossWorkspace {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("LossWorkspace")
-            .field("planes", &self.planes.len())
-            .field("strips", &self.strips.len())
+            .field("bands", &self.bands.len())
+            .field("rows", &self.row_sums.len())
             .finish()
     }
 }
 
 impl LossWorkspace {
-    /// Sized for a W x H image; every entry is written before it is read.
-    fn fit(&mut self, layout: Layout) {
-        let n = layout.width * layout.height;
-        self.planes.resize(n * 3 * BACKWARD, 0.0);
-        let strips = layout.height.div_ceil(STRIP);
-        self.strips.resize_with(strips, StripScratch::default);
-        for strip in &mut self.strips {
-            strip.fit(layout);
+    /// Sized for a W x H image cut into `bands` bands.
+    fn fit(&mut self, layout: Layout, bands: usize) {
+        self.row_sums.resize(layout.height, [0.0; 3]);
+        self.bands.resize_with(bands, BandScratch::default);
+        for band in &mut self.bands {
+            band.fit(layout);
         }
     }
 }
 
-/// `out[x] = sum_t k[t] * rows[t][x]` over the rows that exist (zero padding above and below),
-/// written into `out[RADIUS..RADIUS + width]`; 8 pixels at a time, the sum in a register.
 #[inline(always)]
-fn blur_vertical(k: &[f32; TAPS], rows: &[Option<&[f32]>; TAPS], out: &mut [f32], width: usize) {
-    let out = &mut out[RADIUS..RADIUS + width];
-    let mut taps = [(f32x8::ZERO, &[][..]); TAPS];
-    let mut count = 0;
-    for (kt, row) in k.iter().zip(rows) {
-        if let Some(row) = row {
-            taps[count] = (f32x8::splat(*kt), &row[..width]);
-            count += 1;
-        }
-    }
-    let taps = &taps[..count];
-    let chunks = width / LANES;
-    for c in 0..chunks {
-        let at = c * LANES;
-        let mut acc = f32x8::ZERO;
-        for (kt, row) in taps {
-            acc = f32x8::new(load8(row, at)).mul_add(*kt, acc);
-        }
-        out[at..at + LANES].copy_from_slice(&acc.to_array());
-    }
-    for x in chunks * LANES..width {
-        out[x] = taps.iter().map(|(kt, row)| kt.to_array()[0] * row[x]).sum();
-    }
-}
-
-/// `out[x] = sum_t k[t] * padded[x + t]`: the horizontal blur of a zero-padded row, 8 pixels
-/// at a time.
-#[inline(always)]
-fn blur_horizontal(k: &[f32; TAPS], padded: &[f32], out: &mut [f32]) {
-    let taps: [f32x8; TAPS] = std::array::from_fn(|t| f32x8::splat(k[t]));
-    for (c, out) in out.chunks_exact_mut(LANES).enumerate() {
-        let mut acc = f32x8::ZERO;
-        for (t, kt) in taps.iter().enumerate() {
-            acc = f32x8::new(load8(padded, c * LANES + t)).mul_add(*kt, acc);
-        }
-        out.copy_from_slice(&acc.to_array());
-    }
-}
-
-#[inline(always)]
-fn load8(row: &[f32], at: usize) -> [f32; LANES] {
+fn load(row: &[f32], at: usize) -> f32x8 {
     let mut v = [0.0; LANES];
     v.copy_from_slice(&row[at..at + LANES]);
-    v
+    f32x8::new(v)
 }
 
-/// The rows `y - RADIUS ..= y + RADIUS` of an image whose row `r` is `row(r)`, None outside it.
 #[inline(always)]
-fn window_rows<'a>(
-    y: usize,
-    height: usize,
-    row: impl Fn(usize) -> &'a [f32],
-) -> [Option<&'a [f32]>; TAPS] {
-    std::array::from_fn(|t| {
-        let r = y as isize + t as isize - RADIUS as isize;
-        (r >= 0 && (r as usize) < height).then(|| row(r as usize))
-    })
+fn store(row: &mut [f32], at: usize, v: f32x8) {
+    row[at..at + LANES].copy_from_slice(&v.to_array());
 }
 
-/// Phase 1 for one strip: the nine derivative planes of its rows (row-major, nine sub-rows
-/// per image row: channel-major, then dS/dmu_x, dS/dE[x^2], dS/dE[xy]) and the strip's SSIM
-/// sum over pixels and channels.
-fn ssim_strip_forward(
-    x_img: &[f32],
-    y_img: &[f32],
+/// The horizontal blur at `padded[at + RADIUS]` (8 outputs): the symmetric window as five
+/// pairs and a centre.
+#[inline(always)]
+fn blur_horizontal(k: &[f32x8; TAPS], padded: &[f32], at: usize) -> f32x8 {
+    let mut acc = load(padded, at + RADIUS) * k[RADIUS];
+    for t in 0..RADIUS {
+        acc = (load(padded, at + t) + load(padded, at + TAPS - 1 - t)).mul_add(k[t], acc);
+    }
+    acc
+}
+
+/// A band's two rings and the images it reads: everything a row of the band needs.
+struct Band<'a> {
+    x_img: &'a [f32],
+    y_img: &'a [f32],
     layout: Layout,
-    first_row: usize,
-    planes: &mut [f32],
-    scale: f32,
-    scratch: &mut StripScratch,
-) -> f64 {
-    let Layout { width, height, .. } = layout;
-    let k = window::<f32>();
-    let rows = planes.len() / (3 * BACKWARD * width);
-    let lo = first_row.saturating_sub(RADIUS);
-    let hi = (first_row + rows + RADIUS).min(height);
-    // The products of the input rows lo..hi, one channel at a time.
-    let StripScratch {
-        inputs,
-        padded,
-        blurred,
-        ..
-    } = scratch;
-    let span = width.next_multiple_of(LANES);
-    let c1 = f32x8::splat(C1);
-    let c2 = f32x8::splat(C2);
-    let two = f32x8::splat(2.0);
-    let gain = f32x8::splat(scale);
-    let lane_index = f32x8::new([0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
-    let mut total = 0.0f64;
-    for channel in 0..3 {
-        for r in lo..hi {
-            let base = (r - lo) * FORWARD * width;
-            let (q, _) = inputs[base..base + FORWARD * width].split_at_mut(FORWARD * width);
-            for x in 0..width {
-                let a = x_img[3 * (r * width + x) + channel];
-                let b = y_img[3 * (r * width + x) + channel];
-                q[x] = a;
-                q[width + x] = b;
-                q[2 * width + x] = a * a;
-                q[3 * width + x] = b * b;
-                q[4 * width + x] = a * b;
+    k: [f32x8; TAPS],
+    /// The colour L1 term's gradient magnitude.
+    colour_gain: f32,
+    scratch: &'a mut BandScratch,
+}
+
+impl Band<'_> {
+    /// Input row `r` (x or y) of `channel`, zeros outside the image.
+    fn input(&self, r: isize, channel: usize, y: bool) -> &[f32] {
+        let span = self.layout.span;
+        if r < 0 || r as usize >= self.layout.height {
+            return &self.scratch.zeros;
+        }
+        let at = (((r as usize % TAPS) * CHANNELS + channel) * 2 + usize::from(y)) * span;
+        &self.scratch.inputs[at..at + span]
+    }
+
+    /// Derivative plane `plane` of `channel` at row `r`, zeros outside the image.
+    fn plane(&self, r: isize, channel: usize, plane: usize) -> &[f32] {
+        let span = self.layout.span;
+        if r < 0 || r as usize >= self.layout.height {
+            return &self.scratch.zeros;
+        }
+        let at = (((r as usize % TAPS) * CHANNELS + channel) * BACKWARD + plane) * span;
+        &self.scratch.planes[at..at + span]
+    }
+
+    /// Deinterleaves image row `r` into its ring slot, zeros past the width.
+    fn load_row(&mut self, r: usize) {
+        let Layout { width, span, .. } = self.layout;
+        let slot = &mut self.scratch.inputs
+            [(r % TAPS) * CHANNELS * 2 * span..(r % TAPS + 1) * CHANNELS * 2 * span];
+        let pixels = r * width * CHANNELS..(r + 1) * width * CHANNELS;
+        for (which, image) in [self.x_img, self.y_img].into_iter().enumerate() {
+            let row = &image[pixels.clone()];
+            for channel in 0..CHANNELS {
+                let at = (channel * 2 + which) * span;
+                let dst = &mut slot[at..at + span];
+                for (d, rgb) in dst.iter_mut().zip(row.chunks_exact(CHANNELS)) {
+                    *d = rgb[channel];
+                }
+                dst[width..].fill(0.0);
             }
         }
-        for row in 0..rows {
-            let y = first_row + row;
-            for quantity in 0..FORWARD {
-                let source = window_rows(y, height, |r| {
-                    let at = ((r - lo) * FORWARD + quantity) * width;
-                    &inputs[at..at + width]
-                });
-                let out = &mut padded[quantity * layout.padded..(quantity + 1) * layout.padded];
-                blur_vertical(&k, &source, out, width);
+    }
+
+    /// Row `f`'s derivative planes into the plane ring; returns its SSIM summed over pixels
+    /// and channels.
+    fn forward_row(&mut self, f: usize, gain: f32x8) -> f64 {
+        let Layout {
+            width,
+            span,
+            padded: plen,
+            ..
+        } = self.layout;
+        let k = self.k;
+        let (c1, c2, two) = (f32x8::splat(C1), f32x8::splat(C2), f32x8::splat(2.0));
+        let lane_index = f32x8::new([0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
+        let mut row_sum = f32x8::ZERO;
+        let mut padded = std::mem::take(&mut self.scratch.padded);
+        let mut planes = std::mem::take(&mut self.scratch.planes);
+        let slot = (f % TAPS) * CHANNELS * BACKWARD * span;
+        for channel in 0..CHANNELS {
+            let rows = |y: bool| -> [&[f32]; TAPS] {
+                std::array::from_fn(|t| {
+                    self.input(f as isize + t as isize - RADIUS as isize, channel, y)
+                })
+            };
+            let (xs, ys) = (rows(false), rows(true));
+            // Vertical: the five quantities, the products formed from the ring as they go.
+            for at in (0..span).step_by(LANES) {
+                let mut acc = [f32x8::ZERO; FORWARD];
+                for t in 0..TAPS {
+                    let (x, y) = (load(xs[t], at), load(ys[t], at));
+                    let (kx, ky) = (k[t] * x, k[t] * y);
+                    acc[0] += kx;
+                    acc[1] += ky;
+                    acc[2] = kx.mul_add(x, acc[2]);
+                    acc[3] = ky.mul_add(y, acc[3]);
+                    acc[4] = kx.mul_add(y, acc[4]);
+                }
+                for (q, value) in acc.into_iter().enumerate() {
+                    store(&mut padded[q * plen..(q + 1) * plen], RADIUS + at, value);
+                }
             }
-            let out_row = &mut planes[row * 3 * BACKWARD * width..(row + 1) * 3 * BACKWARD * width];
-            for (q, out) in blurred.chunks_exact_mut(span).enumerate() {
-                blur_horizontal(&k, &padded[q * layout.padded..(q + 1) * layout.padded], out);
-            }
-            let mut row_sum = f32x8::ZERO;
-            for x0 in (0..width).step_by(LANES) {
-                let [mx, my, exx, eyy, exy]: [f32x8; FORWARD] =
-                    std::array::from_fn(|q| f32x8::new(load8(&blurred[q * span..], x0)));
+            // Horizontal, then SSIM and its derivatives, 8 pixels at a time.
+            let out = &mut planes
+                [slot + channel * BACKWARD * span..slot + (channel + 1) * BACKWARD * span];
+            for at in (0..span).step_by(LANES) {
+                // Spelled out: through `array::from_fn` the blur is not inlined.
+                let h = |q: usize| blur_horizontal(&k, &padded[q * plen..(q + 1) * plen], at);
+                let (mx, my, exx, eyy, exy) = (h(0), h(1), h(2), h(3), h(4));
                 let var_x = exx - mx * mx;
                 let var_y = eyy - my * my;
                 let cov = exy - mx * my;
@@ -242,91 +250,137 @@ fn ssim_strip_forward(
                 let a2 = two * cov + c2;
                 let b1 = mx * mx + my * my + c1;
                 let b2 = var_x + var_y + c2;
+                // One division: 1/b1 = b2/(b1 b2) and 1/b2 = b1/(b1 b2).
                 let inv = f32x8::ONE / (b1 * b2);
                 let s = a1 * a2 * inv;
-                let ds_dmu = two * my * a2 * inv - two * mx * s / b1;
-                let ds_dvar = -s / b2;
+                let ds_dmu = two * my * a2 * inv - two * mx * s * (b2 * inv);
+                let ds_dvar = -s * (b1 * inv);
                 let ds_dcov = two * a1 * inv;
-                let lanes = (width - x0).min(LANES);
-                let valid = (lane_index - f32x8::splat(lanes as f32)).sign_bit();
+                // Lanes past the width: no pixel, so no SSIM and zero planes (the backward
+                // blur reads them as the image's zero padding).
+                let valid = (lane_index - f32x8::splat((width - at.min(width)) as f32)).sign_bit();
                 row_sum += s & valid;
                 let d = [
                     gain * (ds_dmu - two * mx * ds_dvar - my * ds_dcov),
                     gain * ds_dvar,
                     gain * ds_dcov,
                 ];
-                for (plane, value) in d.iter().enumerate() {
-                    let at = (channel * BACKWARD + plane) * width + x0;
-                    out_row[at..at + lanes].copy_from_slice(&value.to_array()[..lanes]);
+                for (plane, value) in d.into_iter().enumerate() {
+                    store(
+                        &mut out[plane * span..(plane + 1) * span],
+                        at,
+                        value & valid,
+                    );
                 }
             }
-            total += f64::from(row_sum.reduce_add());
         }
+        self.scratch.padded = padded;
+        self.scratch.planes = planes;
+        f64::from(row_sum.reduce_add())
     }
-    total
-}
 
-/// Phase 2 for one strip: the derivative planes blurred back and combined with each pixel's
-/// values into `colour_grad` (which already holds the L1 term), rows `first_row..`.
-fn ssim_strip_backward(
-    x_img: &[f32],
-    y_img: &[f32],
-    layout: Layout,
-    first_row: usize,
-    planes: &[f32],
-    colour_grad: &mut [f32],
-    scratch: &mut StripScratch,
-) {
-    let Layout { width, height, .. } = layout;
-    let k = window::<f32>();
-    let rows = colour_grad.len() / (3 * width);
-    // One row of one channel of each image, and of the gradient, padded to whole vectors.
-    let span = width.next_multiple_of(LANES);
-    let StripScratch {
-        padded,
-        blurred,
-        x_row,
-        y_row,
-        out,
-        ..
-    } = scratch;
-    let blurred = &mut blurred[..BACKWARD * span];
-    for row in 0..rows {
-        let y = first_row + row;
-        let pixels = y * width * 3..(y + 1) * width * 3;
-        let grads = &mut colour_grad[row * width * 3..(row + 1) * width * 3];
-        for channel in 0..3 {
-            for plane in 0..BACKWARD {
-                let source = window_rows(y, height, |r| {
-                    let at = (r * 3 * BACKWARD + channel * BACKWARD + plane) * width;
-                    &planes[at..at + width]
-                });
-                let out = &mut padded[plane * layout.padded..(plane + 1) * layout.padded];
-                blur_vertical(&k, &source, out, width);
+    /// Row `b`'s planes blurred back and combined into `grads` (that row's interleaved colour
+    /// gradient, which holds the L1 term).
+    fn backward_row(&mut self, b: usize, grads: &mut [f32]) {
+        let Layout {
+            span, padded: plen, ..
+        } = self.layout;
+        let k = self.k;
+        let two = f32x8::splat(2.0);
+        let mut padded = std::mem::take(&mut self.scratch.padded);
+        let mut out = std::mem::take(&mut self.scratch.out);
+        for channel in 0..CHANNELS {
+            let rows: [[&[f32]; TAPS]; BACKWARD] = std::array::from_fn(|plane| {
+                std::array::from_fn(|t| {
+                    self.plane(b as isize + t as isize - RADIUS as isize, channel, plane)
+                })
+            });
+            for at in (0..span).step_by(LANES) {
+                let mut acc = [f32x8::ZERO; BACKWARD];
+                for t in 0..TAPS {
+                    for (plane, acc) in acc.iter_mut().enumerate() {
+                        *acc = load(rows[plane][t], at).mul_add(k[t], *acc);
+                    }
+                }
+                for (plane, value) in acc.into_iter().enumerate() {
+                    store(
+                        &mut padded[plane * plen..(plane + 1) * plen],
+                        RADIUS + at,
+                        value,
+                    );
+                }
             }
-            let rgb = x_img[pixels.clone()].chunks_exact(3);
-            for (x, v) in x_row.iter_mut().zip(rgb) {
-                *x = v[channel];
+            let (xs, ys) = (
+                self.input(b as isize, channel, false),
+                self.input(b as isize, channel, true),
+            );
+            let out = &mut out[channel * span..(channel + 1) * span];
+            for at in (0..span).step_by(LANES) {
+                let h = |q: usize| blur_horizontal(&k, &padded[q * plen..(q + 1) * plen], at);
+                let g = [h(0), h(1), h(2)];
+                let sum = g[0] + two * load(xs, at) * g[1] + load(ys, at) * g[2];
+                store(out, at, sum);
             }
-            let rgb = y_img[pixels.clone()].chunks_exact(3);
-            for (x, v) in y_row.iter_mut().zip(rgb) {
-                *x = v[channel];
+        }
+        let (r, rest) = out.split_at(span);
+        let (g, bl) = rest.split_at(span);
+        for (pixel, ((r, g), bl)) in grads
+            .chunks_exact_mut(CHANNELS)
+            .zip(r.iter().zip(g).zip(bl))
+        {
+            pixel[0] += r;
+            pixel[1] += g;
+            pixel[2] += bl;
+        }
+        self.scratch.padded = padded;
+        self.scratch.out = out;
+    }
+
+    /// Row `b`'s colour gradient into `grads` (the row's interleaved entries): the L1 term
+    /// first (its pixels are still in cache from `load_row`), then the SSIM part added to
+    /// it. Returns the row's colour L1 sum.
+    fn finish_row(&mut self, b: usize, grads: &mut [f32]) -> f64 {
+        let pixels = b * grads.len()..(b + 1) * grads.len();
+        let l1 = l1_term(
+            &self.x_img[pixels.clone()],
+            &self.y_img[pixels],
+            grads,
+            self.colour_gain,
+            false,
+        );
+        self.backward_row(b, grads);
+        l1
+    }
+
+    /// The colour gradient of the rows `rows` into `grads` (their interleaved entries), and
+    /// each row's SSIM and colour L1 sums into the first two entries of its `sums`.
+    fn run(&mut self, rows: Range<usize>, grads: &mut [f32], sums: &mut [[f64; 3]], gain: f32x8) {
+        let height = self.layout.height;
+        let row_len = self.layout.width * CHANNELS;
+        let forward_lo = rows.start.saturating_sub(RADIUS);
+        let forward_hi = (rows.end + RADIUS).min(height);
+        let mut next_input = forward_lo.saturating_sub(RADIUS);
+        let mut finish = |band: &mut Self, sums: &mut [[f64; 3]], b: usize| {
+            let at = (b - rows.start) * row_len;
+            sums[b - rows.start][1] = band.finish_row(b, &mut grads[at..at + row_len]);
+        };
+        for f in forward_lo..forward_hi {
+            while next_input < (f + RADIUS + 1).min(height) {
+                self.load_row(next_input);
+                next_input += 1;
             }
-            for (plane, out) in blurred.chunks_exact_mut(span).enumerate() {
-                let source = &padded[plane * layout.padded..(plane + 1) * layout.padded];
-                blur_horizontal(&k, source, out);
+            let sum = self.forward_row(f, gain);
+            if rows.contains(&f) {
+                sums[f - rows.start][0] = sum;
             }
-            for x0 in (0..width).step_by(LANES) {
-                let g: [f32x8; BACKWARD] =
-                    std::array::from_fn(|plane| f32x8::new(load8(&blurred[plane * span..], x0)));
-                let xs = f32x8::new(load8(x_row, x0));
-                let ys = f32x8::new(load8(y_row, x0));
-                let sum = g[0] + f32x8::splat(2.0) * xs * g[1] + ys * g[2];
-                out[x0..x0 + LANES].copy_from_slice(&sum.to_array());
+            // Row f - RADIUS has every plane row it blurs, and its input row is still held.
+            if let Some(b) = f.checked_sub(RADIUS).filter(|b| rows.contains(b)) {
+                finish(self, sums, b);
             }
-            for (g, v) in grads.chunks_exact_mut(3).zip(out.iter()) {
-                g[channel] += v;
-            }
+        }
+        // The last rows of the image: the rows below them are zeros, not computed.
+        for b in forward_hi.saturating_sub(RADIUS).max(rows.start)..rows.end {
+            finish(self, sums, b);
         }
     }
 }
@@ -345,14 +399,14 @@ fn l1_term(
     let chunks = grads.len() / LANES;
     for c in 0..chunks {
         let at = c * LANES;
-        let t = f32x8::new(load8(target, at));
-        let mut d = f32x8::new(load8(rendered, at)) - t;
+        let t = load(target, at);
+        let mut d = load(rendered, at) - t;
         if measured_only {
             d &= t.cmp_gt(f32x8::ZERO);
         }
         sum += d.abs();
         let sign = (d.cmp_gt(f32x8::ZERO) & one) - (d.cmp_lt(f32x8::ZERO) & one);
-        grads[at..at + LANES].copy_from_slice(&(sign * f32x8::splat(gain)).to_array());
+        store(grads, at, sign * f32x8::splat(gain));
     }
     let mut total = f64::from(sum.reduce_add());
     for i in chunks * LANES..grads.len() {
@@ -404,81 +458,55 @@ pub fn loss_simd_in(
         return [0.0, 0.0, 0.0];
     }
     let layout = Layout::new(width, height);
-    workspace.fit(layout);
-    let LossWorkspace { planes, strips } = workspace;
-    // Depth: measured pixels only.
+    let band_rows = height.div_ceil(rayon::current_num_threads().max(1));
+    workspace.fit(layout, height.div_ceil(band_rows));
+    let LossWorkspace { bands, row_sums } = workspace;
     let measured = target.depth.par_iter().filter(|d| **d > 0.0).count();
     let depth_inv = if measured > 0 {
         1.0 / measured as f32
     } else {
         0.0
     };
-    let depth_l1: f64 = depth_grad
-        .par_chunks_mut(STRIP * width)
-        .enumerate()
-        .map(|(strip, grads)| {
-            let first = strip * STRIP * width;
-            let range = first..first + grads.len();
-            l1_term(
-                &rendered.depth[range.clone()],
-                &target.depth[range],
-                grads,
-                depth_inv,
-                true,
-            )
-        })
-        .sum::<f64>()
-        * f64::from(depth_inv);
-    // Phase 1: the SSIM derivative planes, and the colour L1 term into the gradient.
     let inv3 = 1.0 / (3 * n) as f32;
-    let scale = -SSIM_WEIGHT / 3.0 / n as f32;
-    let (colour_l1, ssim_sum) = planes
-        .par_chunks_mut(STRIP * width * 3 * BACKWARD)
-        .zip(colour_grad.par_chunks_mut(STRIP * width * 3))
-        .zip(strips.par_iter_mut())
-        .enumerate()
-        .map(|(strip, ((planes, grads), scratch))| {
-            let first = strip * STRIP * width * 3;
-            let range = first..first + grads.len();
-            let l1 = l1_term(
-                &rendered.colour[range.clone()],
-                &target.colour[range],
-                grads,
-                COLOUR_WEIGHT * inv3,
-                false,
-            );
-            let s = ssim_strip_forward(
-                rendered.colour,
-                target.colour,
-                layout,
-                strip * STRIP,
-                planes,
-                scale,
-                scratch,
-            );
-            (l1, s)
-        })
-        .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
-    // Phase 2: the derivative planes blurred back into the colour gradient.
-    let planes = &*planes;
+    let colour_gain = COLOUR_WEIGHT * inv3;
+    let ssim_gain = f32x8::splat(-SSIM_WEIGHT / 3.0 / n as f32);
+    let k = window::<f32>().map(f32x8::splat);
+    let row_len = width * CHANNELS;
     colour_grad
-        .par_chunks_mut(STRIP * width * 3)
-        .zip(strips.par_iter_mut())
+        .par_chunks_mut(band_rows * row_len)
+        .zip(depth_grad.par_chunks_mut(band_rows * width))
+        .zip(row_sums.par_chunks_mut(band_rows))
+        .zip(bands.par_iter_mut())
         .enumerate()
-        .for_each(|(strip, (grads, scratch))| {
-            ssim_strip_backward(
-                rendered.colour,
-                target.colour,
+        .for_each(|(index, (((grads, depth_grads), sums), scratch))| {
+            let rows = index * band_rows..(index * band_rows + sums.len());
+            for (offset, sum) in sums.iter_mut().enumerate() {
+                let depth = (rows.start + offset) * width..(rows.start + offset + 1) * width;
+                sum[2] = l1_term(
+                    &rendered.depth[depth.clone()],
+                    &target.depth[depth],
+                    &mut depth_grads[offset * width..(offset + 1) * width],
+                    depth_inv,
+                    true,
+                );
+            }
+            let mut band = Band {
+                x_img: rendered.colour,
+                y_img: target.colour,
                 layout,
-                strip * STRIP,
-                planes,
-                grads,
+                k,
+                colour_gain,
                 scratch,
-            );
+            };
+            band.run(rows, grads, sums, ssim_gain);
         });
+    // Sums in row order: the same whatever the bands were.
+    let [ssim, colour_l1, depth_l1] = row_sums.iter().fold([0.0f64; 3], |acc, s| {
+        [acc[0] + s[0], acc[1] + s[1], acc[2] + s[2]]
+    });
     [
-        depth_l1 as f32,
+        (depth_l1 * f64::from(depth_inv)) as f32,
         (colour_l1 * f64::from(inv3)) as f32,
-        (ssim_sum / (3 * n) as f64) as f32,
+        (ssim / (3 * n) as f64) as f32,
     ]
 }

@@ -257,8 +257,8 @@ pub struct LossBenchRow {
     pub resolution: (u32, u32),
     /// The reference (`loss_generic` in f32: serial blurs, a task per channel).
     pub reference: f64,
-    /// `loss_simd` with fresh scratch memory each call (strips of rows on every core, 8 pixels
-    /// per SIMD step), as `mapping_loss` runs it.
+    /// `loss_simd` with fresh scratch memory each call (a band of rows per core, 8 pixels per
+    /// SIMD step), as `mapping_loss` runs it.
     pub simd: f64,
     /// `loss_simd_in` with a workspace kept across calls, as the mapper runs it.
     pub kept: f64,
