@@ -213,17 +213,20 @@ fn simd_loss_matches_the_f64_reference_and_finite_differences_at_640x480() {
     }
 }
 
+/// The top-left `cw` x `ch` pixels of a row-major image `w` pixels wide with `channels` floats
+/// per pixel, as a packed image of its own.
+fn crop(v: &[f32], w: usize, channels: usize, cw: usize, ch: usize) -> Vec<f32> {
+    (0..ch)
+        .flat_map(|y| v[y * w * channels..(y * w + cw) * channels].to_vec())
+        .collect()
+}
+
 #[test]
 fn a_kept_loss_workspace_gives_fresh_scratch_results_bit_for_bit_across_sizes() {
     // The mapper keeps one workspace for every iteration (and the sizes of a run never change,
     // but a reused Python mapper's may): stale rows or padding from an earlier call at another
     // size must never leak into a later one.
     let (colour, depth, target, target_depth, w, h) = vga_pair();
-    let crop = |v: &[f32], channels: usize, cw: usize, ch: usize| -> Vec<f32> {
-        (0..ch)
-            .flat_map(|y| v[y * w * channels..(y * w + cw) * channels].to_vec())
-            .collect()
-    };
     let mut workspace = LossWorkspace::default();
     // Full size, a crop whose width is no multiple of 8, then full size again with the images
     // swapped (other values everywhere).
@@ -239,8 +242,11 @@ fn a_kept_loss_workspace_gives_fresh_scratch_results_bit_for_bit_across_sizes() 
         } else {
             (&colour, &target)
         };
-        let (rc, tc) = (crop(a, 3, cw, ch), crop(b, 3, cw, ch));
-        let (rd, td) = (crop(&depth, 1, cw, ch), crop(&target_depth, 1, cw, ch));
+        let (rc, tc) = (crop(a, w, 3, cw, ch), crop(b, w, 3, cw, ch));
+        let (rd, td) = (
+            crop(&depth, w, 1, cw, ch),
+            crop(&target_depth, w, 1, cw, ch),
+        );
         let rendered = RgbdSlices {
             colour: &rc,
             depth: &rd,
@@ -280,14 +286,12 @@ fn the_simd_loss_is_the_same_bit_for_bit_on_any_number_of_threads() {
     // gradient entry and no term (README: thread count does not change a trajectory).
     // Sizes: VGA, and a crop whose height leaves a short last band and rows < 11 per band.
     let (colour, depth, target, target_depth, w, _) = vga_pair();
-    let crop = |v: &[f32], channels: usize, cw: usize, ch: usize| -> Vec<f32> {
-        (0..ch)
-            .flat_map(|y| v[y * w * channels..(y * w + cw) * channels].to_vec())
-            .collect()
-    };
     for (cw, ch) in [(640, 480), (203, 37)] {
-        let (rc, tc) = (crop(&colour, 3, cw, ch), crop(&target, 3, cw, ch));
-        let (rd, td) = (crop(&depth, 1, cw, ch), crop(&target_depth, 1, cw, ch));
+        let (rc, tc) = (crop(&colour, w, 3, cw, ch), crop(&target, w, 3, cw, ch));
+        let (rd, td) = (
+            crop(&depth, w, 1, cw, ch),
+            crop(&target_depth, w, 1, cw, ch),
+        );
         let run = |threads: usize| {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
