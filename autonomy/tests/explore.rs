@@ -8,7 +8,9 @@ use autonomy::drive::{advance, DriveLimits, Pose2};
 use autonomy::explore::agslam::{
     expected_information_gain, path_score, AgslamConfig, AgslamPlanner, SparseFisher, TrainMode,
 };
-use autonomy::explore::evidence::{CellClass, ClassGrid, EvidenceConfig, EvidenceGrid};
+use autonomy::explore::evidence::{
+    CellClass, ClassGrid, EvidenceConfig, EvidenceGrid, FreeCells, SAMPLED_FRACTIONS,
+};
 use autonomy::explore::executor::{CollisionEngine, ExecutorConfig};
 use autonomy::explore::fbe::{FbeConfig, FbePlanner};
 use autonomy::explore::frontier::{self, Cluster};
@@ -126,9 +128,109 @@ fn the_choice_is_count_over_distance_plus_twenty() {
     assert_eq!(ranked[0].0, 1, "the huge one wins: {ranked:?}");
 }
 
+/// The papers' grid with free evidence in every cell a ray crosses (RT-GuIDE's rule).
+fn crossed() -> EvidenceConfig {
+    EvidenceConfig {
+        free_cells: FreeCells::Crossed,
+        ..EvidenceConfig::default()
+    }
+}
+
+/// The cell of a plan point in 5 cm cells.
+fn lattice(x: f64, y: f64) -> [i64; 2] {
+    [(x / 0.05).floor() as i64, (y / 0.05).floor() as i64]
+}
+
+/// AG-SLAM's `update_occ_map` for one frame, transcribed cell by cell: occupied where an end
+/// in the band lies, else free on the line from the camera's cell to each such end (the cell
+/// nearest the exact line at every step of the major axis) or at a sampled point in the band.
+fn papers_frame_by_brute_force(
+    origin: Point3,
+    ends: &[Point3],
+) -> std::collections::BTreeMap<[i64; 2], bool> {
+    let (low, high, range) = (0.1, 1.3, 7.0);
+    let mut cells = std::collections::BTreeMap::new();
+    let camera = lattice(origin.x, origin.y);
+    for end in ends {
+        let length = (end - origin).norm();
+        for f in SAMPLED_FRACTIONS {
+            let p = origin + f * (end - origin);
+            if f * length <= range && (low..=high).contains(&p.z) {
+                cells.entry(lattice(p.x, p.y)).or_insert(false);
+            }
+        }
+        if length > range || !(low..=high).contains(&end.z) {
+            continue;
+        }
+        let e = lattice(end.x, end.y);
+        let (dx, dy) = (e[0] - camera[0], e[1] - camera[1]);
+        let n = dx.abs().max(dy.abs());
+        for k in 0..n {
+            let t = k as f64 / n as f64;
+            let at = |a: i64, d: i64| (a as f64 + t * d as f64).round() as i64;
+            cells
+                .entry([at(camera[0], dx), at(camera[1], dy)])
+                .or_insert(false);
+        }
+    }
+    for end in ends {
+        if (end - origin).norm() <= range && (low..=high).contains(&end.z) {
+            cells.insert(lattice(end.x, end.y), true);
+        }
+    }
+    cells
+}
+
+#[test]
+fn the_papers_grid_frees_their_lines_and_sampled_points_and_nothing_else() {
+    // Rays from a camera 0.4 m up to walls in the band, to the floor, over the band and beyond
+    // the range, each frame against the transcription of the authors' update. Ends are chosen
+    // so that every line has an odd number of steps along its major axis: then no step of the
+    // exact line falls half-way between two cells, where Bresenham implementations may differ.
+    let origin = Point3::new(0.012, 0.037, 0.4);
+    let camera = lattice(origin.x, origin.y);
+    let mut rng = 0x9e37_79b9_7f4a_7c15u64;
+    let mut uniform = move || {
+        rng = rng
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (rng >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for frame in 0..20 {
+        let mut ends = Vec::new();
+        while ends.len() < 40 {
+            let (a, r) = (std::f64::consts::TAU * uniform(), 0.3 + 7.5 * uniform());
+            let z = [0.0, 0.05, 0.2, 0.7, 1.25, 1.6][ends.len() % 6];
+            let end = Point3::new(origin.x + r * a.cos(), origin.y + r * a.sin(), z);
+            let e = lattice(end.x, end.y);
+            if (e[0] - camera[0]).abs().max((e[1] - camera[1]).abs()) % 2 == 1 {
+                ends.push(end);
+            }
+        }
+        let mut grid = EvidenceGrid::new(EvidenceConfig::default());
+        grid.integrate_frame(origin, &ends);
+        let expected = papers_frame_by_brute_force(origin, &ends);
+        let g = grid.classes();
+        let mut free = 0;
+        for c in 0..g.len() {
+            let p = g.centre(c);
+            let l = lattice(p[0], p[1]);
+            let want = match expected.get(&l) {
+                Some(true) => CellClass::Occupied,
+                Some(false) => CellClass::Free,
+                None => CellClass::Unknown,
+            };
+            assert_eq!(g.classes[c], want, "frame {frame}, cell {l:?}");
+            free += usize::from(want == CellClass::Free);
+        }
+        assert!(free > 100, "frame {frame}: only {free} free cells");
+    }
+}
+
 #[test]
 fn one_ray_clears_up_to_the_wall_marks_it_and_leaves_what_is_behind() {
-    let mut grid = EvidenceGrid::new(EvidenceConfig::default());
+    // Every crossed cell (RT-GuIDE's grid); the papers' lines and samples have their own test.
+    let mut grid = EvidenceGrid::new(crossed());
     // From (0, 0.025, 0.4) to a wall point 2 m ahead at the same height.
     grid.integrate_ray(Point3::new(0.0, 0.025, 0.4), Point3::new(2.0, 0.025, 0.4));
     for k in 0..40 {
@@ -155,7 +257,7 @@ fn with_a_low_free_height_a_ray_over_a_table_clears_only_below_it() {
     // metre, and still marks the wall.
     let mut grid = EvidenceGrid::new(EvidenceConfig {
         free_height: 0.6,
-        ..EvidenceConfig::default()
+        ..crossed()
     });
     grid.integrate_ray(Point3::new(0.0, 0.025, 0.4), Point3::new(3.0, 0.025, 1.0));
     let cut = 3.0 * (0.6 - 0.4) / (1.0 - 0.4);
@@ -263,10 +365,10 @@ fn a_frame_votes_once_per_cell_so_rays_grazing_a_wall_do_not_outvote_its_end_poi
     votes.integrate_frame(origin, &ends);
     let mut counts = EvidenceGrid::new(EvidenceConfig {
         frame_votes: false,
-        ..EvidenceConfig::default()
+        ..crossed()
     });
     counts.integrate_frame(origin, &ends);
-    let mut by_ray = EvidenceGrid::new(EvidenceConfig::default());
+    let mut by_ray = EvidenceGrid::new(crossed());
     for end in &ends {
         by_ray.integrate_ray(origin, *end);
     }
@@ -305,7 +407,7 @@ fn with_a_free_range_a_long_ray_clears_only_near_the_camera_and_still_marks_its_
     // are free, those from 3 m to the wall stay unseen (a frontier at 3 m), the wall is hit.
     let mut grid = EvidenceGrid::new(EvidenceConfig {
         free_range: 3.0,
-        ..EvidenceConfig::default()
+        ..crossed()
     });
     grid.integrate_ray(Point3::new(0.0, 0.025, 0.4), Point3::new(5.0, 0.025, 0.4));
     for k in 0..100 {
@@ -331,7 +433,7 @@ fn free_evidence_comes_only_from_where_a_ray_is_within_the_height_band() {
     let config = EvidenceConfig {
         free_from_height: 0.1,
         free_height: 0.6,
-        ..EvidenceConfig::default()
+        ..crossed()
     };
     let rays = [
         ([0.0, 0.4], [4.0, 0.0]),
@@ -392,7 +494,7 @@ fn with_height_slices_a_cell_is_free_only_once_rays_crossed_it_at_every_height()
         free_height: 0.6,
         height_slices: 4,
         slices_top: 0.4,
-        ..EvidenceConfig::default()
+        ..crossed()
     };
     let origin = Point3::new(0.0, 0.025, 0.4);
     let ends: Vec<Point3> = (0..=120)

@@ -1,10 +1,12 @@
-//! The 2D evidence grid of frontier exploration (AG-SLAM's FBE baseline): every depth ray adds
-//! free evidence to the cells it crosses below the height band's top and occupied evidence at
-//! its end when the end lies in the band; the map's Gaussian means add obstacle evidence. A
-//! cell's class is the argmax of its evidence over {unknown, occupied, free}, where (as their
-//! code weighs end points 100 to a crossing's 1 and normalises each frame) a frame votes once
-//! per cell: occupied if any of its rays ended there. The grid grows
-//! as the robot sees further, so no world size is assumed.
+//! The 2D evidence grid of frontier exploration (AG-SLAM's FBE baseline): depth rays add free
+//! evidence and occupied evidence at their ends when the end lies in the height band; the map's
+//! Gaussian means add obstacle evidence. A cell's class is the argmax of its evidence over
+//! {unknown, occupied, free}, where (as their code weighs end points 100 to a crossing's 1 and
+//! normalises each frame) a frame votes once per cell: occupied if any of its rays ended there.
+//! Which cells a ray frees is [`FreeCells`]: the papers' grid frees what their code draws (an
+//! 8-connected line from the camera's cell to each end cell in the band, and points sampled
+//! along every ray), RT-GuIDE's every cell a ray crosses. The grid grows as the robot sees
+//! further, so no world size is assumed.
 
 use crate::camera::PinholeCamera;
 use crate::math::Point3;
@@ -64,7 +66,38 @@ pub struct EvidenceConfig {
     /// every thin wall, and AG-SLAM shuttled before one for hundreds of seconds (issue 40).
     /// RT-GuIDE's grid counts rays (off; its frontier regions were tuned so).
     pub frame_votes: bool,
+    /// Which cells a ray adds free evidence to.
+    pub free_cells: FreeCells,
 }
+
+/// Which cells a depth ray adds free evidence to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum FreeCells {
+    /// Every cell the ray crosses while within the free band and range (an exact traversal;
+    /// RT-GuIDE's grid and the executor's guard, whose free bands and height slices need it).
+    Crossed,
+    /// What AG-SLAM's code draws (`update_occ_map`): an 8-connected (Bresenham) line from the
+    /// camera's cell to the cell of every end in the band and range, and the cells of points
+    /// at `SAMPLED_FRACTIONS` of every ray that lie in the band and range. A line has one cell
+    /// per step of its major axis, so a ray grazing a wall's face crosses fewer of the face's
+    /// cells than the exact traversal marks: with every crossed cell, thin walls' faces kept
+    /// turning free in frames where only grazing rays crossed them, and AG-SLAM chose
+    /// frontiers behind them (issue 40). `free_range`, `free_from_height` and `free_height`
+    /// bound the sampled points; lines follow the ends alone; height slices are not used.
+    PapersLines,
+}
+
+/// Where along a ray (as fractions of its length) AG-SLAM's code samples its free points: ten of
+/// `linspace(1e-3, 0.95, 11)`, whose last entry is replaced by the end itself.
+pub const SAMPLED_FRACTIONS: [f64; 10] = {
+    let mut f = [0.0; 10];
+    let mut k = 0;
+    while k < 10 {
+        f[k] = 1e-3 + (0.95 - 1e-3) * k as f64 / 10.0;
+        k += 1;
+    }
+    f
+};
 
 impl Default for EvidenceConfig {
     fn default() -> Self {
@@ -83,6 +116,7 @@ impl Default for EvidenceConfig {
             gaussians_occupied: 50,
             filled_class: CellClass::Occupied,
             frame_votes: true,
+            free_cells: FreeCells::PapersLines,
         }
     }
 }
@@ -202,7 +236,10 @@ const GROW_MARGIN: i64 = 80;
 impl EvidenceGrid {
     /// An empty grid.
     pub fn new(config: EvidenceConfig) -> Self {
-        let slicing = Slicing::of(&config);
+        let slicing = match config.free_cells {
+            FreeCells::Crossed => Slicing::of(&config),
+            FreeCells::PapersLines => None,
+        };
         EvidenceGrid {
             config,
             slicing,
@@ -304,17 +341,28 @@ impl EvidenceGrid {
 
     /// One frame's rays from `origin` to the surface points `ends`.
     pub fn integrate_frame(&mut self, origin: Point3, ends: &[Point3]) {
-        if !self.config.frame_votes {
-            for end in ends {
-                self.integrate_ray(origin, *end);
-            }
-            return;
-        }
         let mut cells = Vec::new();
-        for end in ends {
-            self.ray_cells(origin, *end, &mut cells);
+        if self.config.frame_votes {
+            for end in ends {
+                self.ray_cells(origin, *end, &mut cells);
+            }
+            self.vote(&mut cells);
+        } else {
+            for end in ends {
+                cells.clear();
+                self.ray_cells(origin, *end, &mut cells);
+                self.vote(&mut cells);
+            }
         }
-        // One vote per cell and frame: occupied if any ray ended in it, else free.
+    }
+
+    /// One ray from `origin` to the surface point `end` (a frame of one ray).
+    pub fn integrate_ray(&mut self, origin: Point3, end: Point3) {
+        self.integrate_frame(origin, std::slice::from_ref(&end));
+    }
+
+    /// One vote per cell of `cells`: occupied if any of its entries is an end, else free.
+    fn vote(&mut self, cells: &mut [([i64; 2], bool)]) {
         cells.sort_unstable();
         for group in cells.chunk_by(|a, b| a.0 == b.0) {
             let i = self.index(group[0].0);
@@ -326,25 +374,69 @@ impl EvidenceGrid {
         }
     }
 
-    /// One ray from `origin` to the surface point `end`: free evidence along it while it is
-    /// below the band's top and within range, occupied evidence at its end when that lies in
-    /// the band and within range (a frame of one ray).
-    pub fn integrate_ray(&mut self, origin: Point3, end: Point3) {
-        let mut cells = Vec::new();
-        self.ray_cells(origin, end, &mut cells);
-        for (l, hit) in cells {
-            let i = self.index(l);
-            if hit {
-                self.occupied[i] += 1;
-            } else {
-                self.free[i] += 1;
-            }
-        }
-    }
-
     /// The cells a ray adds evidence to, `true` for its end's occupied evidence (the grid
     /// grown to hold them, their height slices marked).
     fn ray_cells(&mut self, origin: Point3, end: Point3, out: &mut Vec<([i64; 2], bool)>) {
+        match self.config.free_cells {
+            FreeCells::Crossed => self.crossed_cells(origin, end, out),
+            FreeCells::PapersLines => self.papers_cells(origin, end, out),
+        }
+    }
+
+    /// [`FreeCells::PapersLines`]: the line to an end in the band and range, then the sampled
+    /// points in the band and range, then the end.
+    fn papers_cells(&mut self, origin: Point3, end: Point3, out: &mut Vec<([i64; 2], bool)>) {
+        let c = self.config;
+        let length = (end - origin).norm();
+        if !(length.is_finite() && length > 0.0) {
+            return;
+        }
+        let in_band = |z: f64| z >= c.min_height && z <= c.max_height;
+        let hit = length <= c.max_range && in_band(end.z);
+        let (la, lb) = (
+            self.lattice([origin.x, origin.y]),
+            self.lattice([end.x, end.y]),
+        );
+        let mut cells = Vec::new();
+        if hit {
+            bresenham(la, lb, &mut cells);
+            cells.pop(); // the end's own cell holds its occupied evidence
+        }
+        let (low, high) = (
+            c.min_height.max(c.free_from_height),
+            c.max_height.min(c.free_height),
+        );
+        let reach = c.max_range.min(c.free_range);
+        for f in SAMPLED_FRACTIONS {
+            let p = origin + f * (end - origin);
+            if f * length <= reach && p.z >= low && p.z <= high {
+                cells.push(self.lattice([p.x, p.y]));
+            }
+        }
+        if hit {
+            cells.push(lb);
+        }
+        let Some(first) = cells.first().copied() else {
+            return;
+        };
+        let (lo, hi) = cells.iter().fold((first, first), |(lo, hi), l| {
+            (
+                [lo[0].min(l[0]), lo[1].min(l[1])],
+                [hi[0].max(l[0]), hi[1].max(l[1])],
+            )
+        });
+        self.reserve(lo, hi);
+        let n = cells.len();
+        out.extend(
+            cells
+                .into_iter()
+                .enumerate()
+                .map(|(k, l)| (l, hit && k + 1 == n)),
+        );
+    }
+
+    /// [`FreeCells::Crossed`]: every cell crossed within the free band and range.
+    fn crossed_cells(&mut self, origin: Point3, end: Point3, out: &mut Vec<([i64; 2], bool)>) {
         let c = &self.config;
         let length = (end - origin).norm();
         if !(length.is_finite() && length > 0.0) {
@@ -576,6 +668,31 @@ fn band_interval(z0: f64, dz: f64, low: f64, high: f64, t_end: f64) -> (f64, f64
     let (a, b) = ((low - z0) / dz, (high - z0) / dz);
     let (lo, hi) = if a < b { (a, b) } else { (b, a) };
     (lo.max(0.0), hi.min(t_end))
+}
+
+/// The 8-connected line of lattice cells from `a` to `b`, both included (Bresenham's: one cell
+/// per step along the major axis, the minor axis stepping where the line's error passes half a
+/// cell), as OpenCV's `cv2.line` draws it with thickness 1.
+fn bresenham(a: [i64; 2], b: [i64; 2], out: &mut Vec<[i64; 2]>) {
+    let (dx, dy) = ((b[0] - a[0]).abs(), -(b[1] - a[1]).abs());
+    let (sx, sy) = ((b[0] - a[0]).signum(), (b[1] - a[1]).signum());
+    let mut error = dx + dy;
+    let mut l = a;
+    loop {
+        out.push(l);
+        if l == b {
+            break;
+        }
+        let twice = 2 * error;
+        if twice >= dy {
+            error += dy;
+            l[0] += sx;
+        }
+        if twice <= dx {
+            error += dx;
+            l[1] += sy;
+        }
+    }
 }
 
 /// The lattice cells a 2D segment crosses, in order (Amanatides and Woo's traversal).

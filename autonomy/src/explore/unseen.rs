@@ -3,7 +3,7 @@
 //! `AgslamConfig::avoid_unseen`, flagged). The Gaussian collision check knows only surfaces
 //! the camera has seen: the unseen side of a table passes it as floor.
 
-use super::evidence::{CellClass, ClassGrid, EvidenceConfig, EvidenceGrid};
+use super::evidence::{CellClass, ClassGrid, EvidenceConfig, EvidenceGrid, FreeCells};
 use super::Observation;
 use crate::drive::Pose2;
 use crate::map::GaussianMap;
@@ -50,6 +50,7 @@ pub fn body_evidence(collision: &CollisionModel, camera_height: f64) -> Evidence
         slices_top: camera_height,
         filled_class: CellClass::Unknown,
         frame_votes: false,
+        free_cells: FreeCells::Crossed,
         ..defaults
     }
 }
