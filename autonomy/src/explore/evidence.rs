@@ -397,10 +397,14 @@ impl EvidenceGrid {
             self.lattice([origin.x, origin.y]),
             self.lattice([end.x, end.y]),
         );
-        let mut cells = Vec::new();
+        let start = out.len();
         if hit {
-            bresenham(la, lb, &mut cells);
-            cells.pop(); // the end's own cell holds its occupied evidence
+            // The end's own cell holds its occupied evidence, pushed last.
+            bresenham(la, lb, |l| {
+                if l != lb {
+                    out.push((l, false));
+                }
+            });
         }
         let (low, high) = (
             c.min_height.max(c.free_from_height),
@@ -410,29 +414,24 @@ impl EvidenceGrid {
         for f in SAMPLED_FRACTIONS {
             let p = origin + f * (end - origin);
             if f * length <= reach && p.z >= low && p.z <= high {
-                cells.push(self.lattice([p.x, p.y]));
+                out.push((self.lattice([p.x, p.y]), false));
             }
         }
         if hit {
-            cells.push(lb);
+            out.push((lb, true));
         }
-        let Some(first) = cells.first().copied() else {
+        let Some(&(first, _)) = out.get(start) else {
             return;
         };
-        let (lo, hi) = cells.iter().fold((first, first), |(lo, hi), l| {
-            (
-                [lo[0].min(l[0]), lo[1].min(l[1])],
-                [hi[0].max(l[0]), hi[1].max(l[1])],
-            )
-        });
+        let (lo, hi) = out[start..]
+            .iter()
+            .fold((first, first), |(lo, hi), (l, _)| {
+                (
+                    [lo[0].min(l[0]), lo[1].min(l[1])],
+                    [hi[0].max(l[0]), hi[1].max(l[1])],
+                )
+            });
         self.reserve(lo, hi);
-        let n = cells.len();
-        out.extend(
-            cells
-                .into_iter()
-                .enumerate()
-                .map(|(k, l)| (l, hit && k + 1 == n)),
-        );
     }
 
     /// [`FreeCells::Crossed`]: every cell crossed within the free band and range.
@@ -673,13 +672,13 @@ fn band_interval(z0: f64, dz: f64, low: f64, high: f64, t_end: f64) -> (f64, f64
 /// The 8-connected line of lattice cells from `a` to `b`, both included (Bresenham's: one cell
 /// per step along the major axis, the minor axis stepping where the line's error passes half a
 /// cell), as OpenCV's `cv2.line` draws it with thickness 1.
-fn bresenham(a: [i64; 2], b: [i64; 2], out: &mut Vec<[i64; 2]>) {
+fn bresenham(a: [i64; 2], b: [i64; 2], mut visit: impl FnMut([i64; 2])) {
     let (dx, dy) = ((b[0] - a[0]).abs(), -(b[1] - a[1]).abs());
     let (sx, sy) = ((b[0] - a[0]).signum(), (b[1] - a[1]).signum());
     let mut error = dx + dy;
     let mut l = a;
     loop {
-        out.push(l);
+        visit(l);
         if l == b {
             break;
         }
