@@ -206,9 +206,11 @@ fn cpu_iterations(
 }
 
 /// The resident iteration (render, loss, backward, Adam in one submit) against the CPU
-/// engine's, on a map that grows (as densification grows it) and shrinks (as pruning does),
+/// engine's, on a map that grows (as densification grows it: only the new Gaussians
+/// uploaded) and shrinks (as pruning does: compacted on the GPU from one bit per Gaussian),
 /// with its traffic: after warm-up no buffer is created, one submit per iteration, nothing
-/// uploaded and at most 64 bytes read back.
+/// uploaded and at most 64 bytes read back. The resident render (densification's) matches
+/// the CPU engine's render of the same map.
 #[test]
 fn resident_iterations_match_the_cpu_engine_and_stay_on_the_gpu() {
     use autonomy::adam::{Adam, LearningRates};
@@ -251,18 +253,55 @@ fn resident_iterations_match_the_cpu_engine_and_stay_on_the_gpu() {
             }
         }
         if step == 2 {
+            // The GPU's copy is compacted on the GPU; the host's Adam is not used again.
             let keep: Vec<bool> = (0..cpu_map.len()).map(|i| i % 2 == 0).collect();
-            for (map, adam) in [(&mut cpu_map, &mut cpu_adam), (&mut gpu_map, &mut gpu_adam)] {
-                *map = kept(map, &keep);
-                adam.retain(&keep);
-            }
+            cpu_map = kept(&cpu_map, &keep);
+            cpu_adam.retain(&keep);
+            gpu_map = kept(&gpu_map, &keep);
+            gpu_adam.retain(&keep);
         }
         let n = gpu_map.len();
         gpu_adam.resize(n);
+        let before = gpu.traffic();
+        match step {
+            0 => resident
+                .load(&gpu, &gpu_map, gpu_adam.state())
+                .expect("load"),
+            1 => resident.append(&gpu, &gpu_map).expect("append"),
+            _ => {
+                let keep: Vec<bool> = (0..resident.len()).map(|i| i % 2 == 0).collect();
+                resident.retain(&gpu, &keep).expect("retain");
+            }
+        }
+        let change = gpu.traffic() - before;
+        assert_eq!(resident.len(), n, "step {step}: Gaussians resident");
+        if step > 0 {
+            // Only the new Gaussians (300 x 32 bytes) or one bit per Gaussian go up, with a
+            // few counts and parameters; no buffer is made (the capacity holds 1024).
+            let limit = if step == 1 { 300 * 32 + 128 } else { 256 };
+            assert!(
+                change.uploaded <= limit,
+                "step {step}: {} bytes uploaded to change the map",
+                change.uploaded
+            );
+            assert_eq!(change.buffers, 0, "step {step}: buffers made");
+            assert_eq!(change.submits, 1, "step {step}: submits");
+            resident.begin_step(&gpu);
+        }
+        let rendered = resident.render(&gpu, 0).expect("resident render");
+        let reference = cpu::render(&gpu_map, &views[0].0).expect("cpu render");
+        for (name, a, b) in [
+            ("colour", &rendered.colour, &reference.images.colour),
+            ("depth", &rendered.depth, &reference.images.depth),
+            (
+                "silhouette",
+                &rendered.silhouette,
+                &reference.images.silhouette,
+            ),
+        ] {
+            assert_close(&format!("step {step}: resident {name}"), a, b, 1e-4);
+        }
         let expected = cpu_iterations(&mut cpu_map, &mut cpu_adam, &views, 4);
-        resident
-            .load(&gpu, &gpu_map, gpu_adam.state())
-            .expect("load");
         let mut got = Vec::new();
         for i in 0..4 {
             if i == 1 {

@@ -3,7 +3,7 @@
 
 use autonomy::camera::{Intrinsics, PinholeCamera};
 use autonomy::map::{ClassifyOptions, GaussianMap, UncertaintyClass};
-use autonomy::mapping::{Frame, MapError, Mapper, MapperConfig};
+use autonomy::mapping::{Frame, MapError, Mapper, MapperConfig, StepReport};
 use autonomy::math::Matrix4;
 use autonomy::metrics::{depth_mae, psnr};
 use autonomy::ply::{self, PlyError};
@@ -22,7 +22,7 @@ fn observe(scene: &BoxScene, camera: &PinholeCamera) -> Frame {
     }
 }
 
-fn integrate(mapper: &mut Mapper, scene: &BoxScene, camera: &PinholeCamera) {
+fn integrate(mapper: &mut Mapper, scene: &BoxScene, camera: &PinholeCamera) -> StepReport {
     let frame = observe(scene, camera);
     mapper
         .integrate(
@@ -30,7 +30,7 @@ fn integrate(mapper: &mut Mapper, scene: &BoxScene, camera: &PinholeCamera) {
             &camera.world_from_camera.to_homogeneous(),
             &camera.intrinsics,
         )
-        .expect("mapping step");
+        .expect("mapping step")
 }
 
 /// Frame `i` of a circle of `n` around the room's centre, 1.2 m up, looking outward.
@@ -367,7 +367,11 @@ fn a_degree_3_ply_holds_zero_higher_harmonics_and_the_same_map() {
 
 /// The mapper with the GPU engine (its resident iteration, lavapipe in CI) against the CPU
 /// engine's on the same frames: keyframes added, the current frame's view reused, the map
-/// grown and pruned between steps. The maps agree to rounding.
+/// grown between steps (nothing is pruned at the default threshold here: a pruned Gaussian
+/// near the threshold may go on one engine only, so pruning is checked against the host's map
+/// in the mapper's own tests). The maps agree to rounding, and the map stays on the GPU
+/// between steps: a step uploads its frame, the new Gaussians and a bit per Gaussian for
+/// pruning, and reads back densification's render and the map once.
 #[test]
 fn the_gpu_engine_maps_like_the_cpu_engine() {
     use autonomy::splat::gpu::{AdapterPolicy, GpuError, GpuRasteriser};
@@ -386,7 +390,34 @@ fn the_gpu_engine_maps_like_the_cpu_engine() {
     for i in 0..6 {
         let camera = circle_camera(i, 24, 0.3);
         integrate(&mut on_cpu, &scene, &camera);
-        integrate(&mut on_gpu, &scene, &camera);
+        let gaussians_before = on_gpu.map().len();
+        let traffic = |m: &Mapper| m.engine().gpu().map(|g| g.traffic()).expect("gpu engine");
+        let start = traffic(&on_gpu);
+        let report = integrate(&mut on_gpu, &scene, &camera);
+        let step = traffic(&on_gpu) - start;
+
+        if i > 0 {
+            let pixels = (camera.intrinsics.width * camera.intrinsics.height) as u64;
+            let grown = (gaussians_before + report.added) as u64;
+            // The frame (4 floats a pixel), the new Gaussians (32 bytes each), the keep bits
+            // and a few hundred bytes of counts and parameters.
+            let upload = pixels * 16 + report.added as u64 * 32 + grown.div_ceil(32) * 4 + 1024;
+            assert!(
+                step.uploaded <= upload,
+                "frame {i}: {} bytes uploaded, at most {upload} expected ({} Gaussians resident)",
+                step.uploaded,
+                grown
+            );
+            // Densification's render (7 floats a pixel), the map with its touched flags once,
+            // and each iteration's loss.
+            let iterations = MapperConfig::default().iterations as u64;
+            let read = pixels * 28 + 4 + grown * 36 + iterations * 64;
+            assert!(
+                step.read_back <= read,
+                "frame {i}: {} bytes read back, at most {read} expected",
+                step.read_back
+            );
+        }
         let (a, b) = (on_gpu.map(), on_cpu.map());
         assert_eq!(a.len(), b.len(), "frame {i}: Gaussian counts");
         // Adam normalises each step to about the learning rate (1e-4 m for means) whatever

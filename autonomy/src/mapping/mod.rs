@@ -15,7 +15,7 @@ use crate::gaussians::sigmoid;
 use crate::loss::{mapping_loss_in, LossWorkspace, Target};
 use crate::map::GaussianMap;
 use crate::math::{Isometry3, Matrix3, Matrix4, Rotation3, Translation3, UnitQuaternion};
-use crate::splat::gpu::ResidentMap;
+use crate::splat::gpu::{GpuRasteriser, ResidentMap};
 use crate::splat::{ImageGradients, Rasteriser, RenderError};
 use std::time::Instant;
 use thiserror::Error;
@@ -220,7 +220,8 @@ pub struct Mapper {
     engine: std::sync::Arc<Rasteriser>,
     /// Adam's moments persist across steps (grown on densify, filtered on prune): a Gaussian
     /// that has settled takes small steps, a new one full steps, which is what makes the
-    /// displacement a measure of uncertainty.
+    /// displacement a measure of uncertainty. With the GPU engine the moments live in the
+    /// resident map (this copy keeps only the rates and seeds a reload).
     adam: Adam,
     /// SplaTAM's scene radius: the largest measured depth so far / 3.
     scene_radius: f32,
@@ -296,6 +297,26 @@ impl Mapper {
         world_from_camera: &Matrix4,
         intrinsics: &Intrinsics,
     ) -> Result<StepReport, MapError> {
+        let result = self.integrate_step(frame, world_from_camera, intrinsics);
+        self.forget_resident_after(&result);
+        result
+    }
+
+    /// A renderer's failure may leave the GPU's copy out of step with the host's map; the
+    /// next step uploads it whole again.
+    fn forget_resident_after(&mut self, result: &Result<StepReport, MapError>) {
+        if let Err(MapError::Render(e)) = result {
+            tracing::debug!(%e, "mapping step failed; the resident map will be reloaded");
+            self.resident = None;
+        }
+    }
+
+    fn integrate_step(
+        &mut self,
+        frame: &Frame,
+        world_from_camera: &Matrix4,
+        intrinsics: &Intrinsics,
+    ) -> Result<StepReport, MapError> {
         let pose = pose_from_matrix(world_from_camera)?;
         validate_frame(frame, intrinsics)?;
         let camera = PinholeCamera {
@@ -325,14 +346,14 @@ impl Mapper {
                     .then(|| window[(iteration / 3) % window.len()])
             })
             .collect();
-        report.loss = match self.optimise_resident(frame, &camera, &views, &mut touched)? {
+        report.loss = match self.optimise_resident(&views, &mut touched)? {
             Some(loss) => loss,
             None => self.optimise(frame, &camera, &views, &mut touched)?,
         };
 
         let t2 = Instant::now();
         self.update_uncertainty(&before, &touched);
-        report.pruned = self.prune();
+        report.pruned = self.prune()?;
         report.keyframe = self.keep_keyframe(frame, camera, best_overlap);
         self.steps += 1;
         report.gaussians = self.map.len();
@@ -352,6 +373,12 @@ impl Mapper {
     /// uncertainty and pruning as in [`Mapper::integrate`]. A step without keyframes does
     /// nothing but count.
     pub fn refine(&mut self) -> Result<StepReport, MapError> {
+        let result = self.refine_step();
+        self.forget_resident_after(&result);
+        result
+    }
+
+    fn refine_step(&mut self) -> Result<StepReport, MapError> {
         let mut report = StepReport::default();
         self.steps += 1;
         report.gaussians = self.map.len();
@@ -364,9 +391,6 @@ impl Mapper {
             .map(|k| Some((self.refine_next + k) % count))
             .collect();
         self.refine_next = (self.refine_next + self.config.iterations) % count;
-        // The "current frame" slot is unused (every view is a keyframe); the first keyframe
-        // fills it for the engines' sake.
-        let first = self.keyframes[views[0].unwrap_or(0)].clone();
         let before = self.map.gaussians.means.clone();
         let mut touched = vec![false; self.map.len()];
         self.adam.resize(self.map.len());
@@ -375,41 +399,101 @@ impl Mapper {
         // (at the mapping rates, hundreds of such iterations lowered every held-out view's
         // PSNR: BENCHMARKS.md, "A fair comparison").
         self.adam.rates = self.config.rates.scaled(REFINE_RATE_SCALE);
-        let outcome =
-            match self.optimise_resident(&first.frame, &first.camera, &views, &mut touched) {
-                Ok(Some(loss)) => Ok(loss),
-                Ok(None) => self.optimise(&first.frame, &first.camera, &views, &mut touched),
-                Err(e) => Err(e),
-            };
+        let outcome = match self.optimise_resident(&views, &mut touched) {
+            Ok(Some(loss)) => Ok(loss),
+            // Every view is a keyframe: the "current frame" the CPU path takes is never used.
+            Ok(None) => {
+                let first = self.keyframes[0].clone();
+                self.optimise(&first.frame, &first.camera, &views, &mut touched)
+            }
+            Err(e) => Err(e),
+        };
         self.adam.rates = self.config.rates;
         report.loss = outcome?;
         let t2 = Instant::now();
         self.update_uncertainty(&before, &touched);
-        report.pruned = self.prune();
+        report.pruned = self.prune()?;
         report.gaussians = self.map.len();
         report.seconds = [0.0, (t2 - t1).as_secs_f64(), t2.elapsed().as_secs_f64()];
         tracing::debug!(?report, "refining step");
         Ok(report)
     }
 
-    /// Grows the map where the frame shows what it is missing; the count added.
+    /// Grows the map where the frame shows what it is missing; the count added. With the GPU
+    /// engine the frame becomes the resident map's current view, the map is rendered there
+    /// without being uploaded, and only the new Gaussians go up.
     fn grow(&mut self, frame: &Frame, camera: &PinholeCamera) -> Result<usize, MapError> {
-        let rendered = if self.map.is_empty() {
-            None
+        let engine = self.engine.clone();
+        let added = if let Some(gpu) = engine.gpu() {
+            self.ensure_resident(gpu)?;
+            let Some(state) = self.resident.as_mut() else {
+                unreachable!("made above")
+            };
+            let view = match state.current {
+                Some(slot) => {
+                    state
+                        .map
+                        .replace_view(gpu, slot, camera, &frame.colour, &frame.depth)?;
+                    slot
+                }
+                None => {
+                    let slot = state
+                        .map
+                        .add_view(gpu, camera, &frame.colour, &frame.depth)?;
+                    state.current = Some(slot);
+                    slot
+                }
+            };
+            let rendered = if state.map.is_empty() {
+                None
+            } else {
+                Some(state.map.render(gpu, view)?)
+            };
+            let added = densify::densify(
+                &mut self.map.gaussians,
+                frame,
+                camera,
+                rendered.as_ref(),
+                &self.config.densify,
+            );
+            state.map.append(gpu, &self.map.gaussians)?;
+            added
         } else {
-            Some(self.engine.render(&self.map.gaussians, camera)?)
+            let rendered = if self.map.is_empty() {
+                None
+            } else {
+                Some(engine.render(&self.map.gaussians, camera)?)
+            };
+            densify::densify(
+                &mut self.map.gaussians,
+                frame,
+                camera,
+                rendered.as_ref().map(|r| r.images()),
+                &self.config.densify,
+            )
         };
-        let added = densify::densify(
-            &mut self.map.gaussians,
-            frame,
-            camera,
-            rendered.as_ref().map(|r| r.images()),
-            &self.config.densify,
-        );
-        drop(rendered);
         self.map.adopt_new_gaussians();
 
         Ok(added)
+    }
+
+    /// The GPU engine's resident map, made on first use (or after a failed step dropped it):
+    /// the host's map, Adam's state and the keyframes uploaded once.
+    fn ensure_resident(&mut self, gpu: &GpuRasteriser) -> Result<(), MapError> {
+        if self.resident.is_none() {
+            let mut map = ResidentMap::new(gpu, self.adam.rates);
+            map.load(gpu, &self.map.gaussians, self.adam.state())?;
+            let mut keyframes = Vec::with_capacity(self.keyframes.len());
+            for kf in &self.keyframes {
+                keyframes.push(map.add_view(gpu, &kf.camera, &kf.frame.colour, &kf.frame.depth)?);
+            }
+            self.resident = Some(ResidentViews {
+                map,
+                current: None,
+                keyframes,
+            });
+        }
+        Ok(())
     }
 
     /// The keyframes of the window (those that see most of the frame, at most `window`),
@@ -430,55 +514,41 @@ impl Mapper {
         (ranked.into_iter().map(|(_, i)| i).collect(), best_overlap)
     }
 
-    /// The step's iterations on the GPU, resident: the map loaded once, stored back once; the
-    /// first and last iterations' losses, or `None` (nothing done) with the CPU engine.
+    /// The step's iterations on the GPU, resident: nothing uploaded, the map read back once;
+    /// the first and last iterations' losses, or `None` (nothing done) with the CPU engine.
     fn optimise_resident(
         &mut self,
-        frame: &Frame,
-        camera: &PinholeCamera,
         views: &[Option<usize>],
         touched: &mut [bool],
     ) -> Result<Option<(f32, f32)>, MapError> {
-        let Some(gpu) = self.engine.gpu() else {
+        let engine = self.engine.clone();
+        let Some(gpu) = engine.gpu() else {
             return Ok(None);
         };
-        let mut loss = (0.0, 0.0);
-        // The whole iteration on the GPU: the map loaded once, stored back once.
-        let state = self.resident.get_or_insert_with(|| ResidentViews {
-            map: ResidentMap::new(gpu, self.config.rates),
-            current: None,
-            keyframes: Vec::new(),
-        });
-        let current = match state.current {
-            Some(slot) => {
-                state
-                    .map
-                    .replace_view(gpu, slot, camera, &frame.colour, &frame.depth)?;
-                slot
-            }
-            None => {
-                let slot = state
-                    .map
-                    .add_view(gpu, camera, &frame.colour, &frame.depth)?;
-                state.current = Some(slot);
-                slot
-            }
+        let rates = self.adam.rates;
+        self.ensure_resident(gpu)?;
+        let Some(state) = self.resident.as_mut() else {
+            unreachable!("made above")
         };
-        state.map.set_rates(self.adam.rates);
-        state
-            .map
-            .load(gpu, &self.map.gaussians, self.adam.state())?;
+        let mut loss = (0.0, 0.0);
+        state.map.set_rates(gpu, rates);
+        state.map.begin_step(gpu);
         for (iteration, keyframe) in views.iter().enumerate() {
-            let view = keyframe.map_or(current, |k| state.keyframes[k]);
+            let view = match keyframe {
+                Some(k) => state.keyframes[*k],
+                None => state.current.ok_or_else(|| {
+                    MapError::Render(crate::splat::RenderError::Gpu(
+                        "no current frame was uploaded for this mapping step".into(),
+                    ))
+                })?,
+            };
             let terms = state.map.iterate(gpu, view)?;
             if iteration == 0 {
                 loss.0 = terms.total();
             }
             loss.1 = terms.total();
         }
-        state
-            .map
-            .store(gpu, &mut self.map.gaussians, self.adam.state_mut(), touched)?;
+        state.map.store_map(gpu, &mut self.map.gaussians, touched)?;
         Ok(Some(loss))
     }
 
@@ -534,8 +604,9 @@ impl Mapper {
         }
     }
 
-    /// Drops Gaussians too transparent or too wide; the count pruned.
-    fn prune(&mut self) -> usize {
+    /// Drops Gaussians too transparent or too wide (on the GPU too, compacted there); the
+    /// count pruned.
+    fn prune(&mut self) -> Result<usize, MapError> {
         let max_radius = self.config.prune_radius_fraction * self.scene_radius;
         let g = &self.map.gaussians;
         let keep: Vec<bool> = (0..g.len())
@@ -548,9 +619,13 @@ impl Mapper {
         if pruned > 0 {
             self.map.retain(&keep);
             self.adam.retain(&keep);
+            let engine = self.engine.clone();
+            if let (Some(gpu), Some(state)) = (engine.gpu(), self.resident.as_mut()) {
+                state.map.retain(gpu, &keep)?;
+            }
         }
 
-        pruned
+        Ok(pruned)
     }
 
     /// Keeps the frame if no keyframe already covers it (and there is room); whether it did.
@@ -578,5 +653,79 @@ impl Mapper {
         self.keyframes.clear();
         self.resident = None;
         self.adam = Adam::new(self.config.rates);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::splat::gpu::{AdapterPolicy, GpuError};
+    use crate::synthetic::{look_at, BoxScene};
+
+    /// With the GPU engine the map lives on the GPU between steps, grown by appending and
+    /// pruned by compacting there: after every step the GPU's copy is the host's map, bit for
+    /// bit, in the same order. A high opacity threshold makes every step prune.
+    #[test]
+    fn the_resident_map_is_the_hosts_map_after_growth_and_pruning() {
+        let gpu = match GpuRasteriser::new(AdapterPolicy::AllowSoftware, None) {
+            Ok(g) => g,
+            Err(GpuError::NoAdapter(reason)) => {
+                eprintln!("SKIPPED: no wgpu adapter at all: {reason}");
+                return;
+            }
+            Err(e) => panic!("an adapter exists but the engine failed: {e}"),
+        };
+        let config = MapperConfig {
+            prune_opacity: 0.3,
+            iterations: 6,
+            ..MapperConfig::default()
+        };
+        let mut mapper = Mapper::new(config, Rasteriser::Gpu(Box::new(gpu)));
+        let scene = BoxScene::room();
+        let intrinsics = Intrinsics::from_fovy(60f64.to_radians(), 96, 72);
+        let mut pruned = 0;
+        for i in 0..4 {
+            let a = 0.4 * i as f64;
+            let camera = look_at(
+                [0.2 * a.cos(), 0.2 * a.sin(), 1.2],
+                [3.0 * a.cos(), 3.0 * a.sin(), 1.0],
+                intrinsics,
+            );
+            let truth = scene.render(&camera);
+            let frame = Frame {
+                colour: truth.colour,
+                depth: truth.depth,
+            };
+            let report = mapper
+                .integrate(
+                    &frame,
+                    &camera.world_from_camera.to_homogeneous(),
+                    &intrinsics,
+                )
+                .expect("mapping step");
+            pruned += report.pruned;
+            let engine = mapper.engine.clone();
+            let (Some(gpu), Some(state)) = (engine.gpu(), mapper.resident.as_ref()) else {
+                panic!("the GPU engine keeps a resident map");
+            };
+            let mut resident = mapper.map.gaussians.clone();
+            let mut touched = vec![false; resident.len()];
+            state
+                .map
+                .store_map(gpu, &mut resident, &mut touched)
+                .expect("read the resident map");
+            let host = &mapper.map.gaussians;
+            let differs = (0..host.len()).find(|&k| {
+                resident.means[k] != host.means[k]
+                    || resident.log_radii[k] != host.log_radii[k]
+                    || resident.logit_opacities[k] != host.logit_opacities[k]
+                    || resident.colours[k] != host.colours[k]
+            });
+            assert_eq!(
+                differs, None,
+                "step {i}: the resident map differs from the host's at this Gaussian"
+            );
+        }
+        assert!(pruned > 0, "the steps should prune");
     }
 }

@@ -15,7 +15,7 @@ pub struct BenchArgs {
     /// World to measure in.
     #[arg(long, default_value = "worlds/room.xml")]
     world: PathBuf,
-    /// Frames timed per resolution (sensor).
+    /// Frames timed per resolution (sensor); frames of the tour mapped (map: at most its 46).
     #[arg(long, default_value_t = 300)]
     frames: usize,
     /// Timed iterations per row (render), after one warm-up.
@@ -69,7 +69,7 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         BenchTarget::Plan => plan(&engine, &gaussians),
         BenchTarget::Planners => planners(&gaussians),
         BenchTarget::World => worlds(world),
-        BenchTarget::Map => map(&engine),
+        BenchTarget::Map => map(&engine, frames),
         BenchTarget::Sensor => sensor(&world, frames),
     }
 }
@@ -203,10 +203,10 @@ fn worlds(world: PathBuf) -> Result<()> {
 }
 
 /// Mapping steps as an apartment's map grows, per engine.
-fn map(engine: &[EngineChoice]) -> Result<()> {
+fn map(engine: &[EngineChoice], frames: usize) -> Result<()> {
     for rasteriser in distinct_engines(engine) {
         let name = rasteriser.describe();
-        let (rows, quality) = crate::bench::bench_map(rasteriser, 320, 240, 10)?;
+        let (rows, quality) = crate::bench::bench_map(rasteriser, 320, 240, 10, frames)?;
         print_map_bench(&name, &rows, &quality);
     }
     Ok(())
@@ -296,12 +296,22 @@ fn print_map_bench(
     quality: &crate::bench::MapQuality,
 ) {
     println!("engine: {engine}; 320x240, 10 iterations per step, apartment tour");
-    println!("| step | Gaussians | added | pruned | keyframe window | densify ms | optimise ms | prune ms | step ms |");
-    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| step | Gaussians | added | pruned | keyframe window | densify ms | optimise ms | prune ms | step ms | GPU buffers made, submits, MB up, MB back |");
+    println!("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|");
     for r in rows {
         let s = r.report.seconds.map(|v| v * 1e3);
+        let traffic = match r.traffic {
+            Some(t) => format!(
+                "{}, {}, {:.2}, {:.2}",
+                t.buffers,
+                t.submits,
+                t.uploaded as f64 / 1e6,
+                t.read_back as f64 / 1e6
+            ),
+            None => "-".into(),
+        };
         println!(
-            "| {} | {} | {} | {} | {} | {:.0} | {:.0} | {:.0} | {:.0} |",
+            "| {} | {} | {} | {} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {traffic} |",
             r.step,
             r.report.gaussians,
             r.report.added,

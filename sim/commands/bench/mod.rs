@@ -352,6 +352,8 @@ pub struct MapBenchRow {
     pub report: autonomy::mapping::StepReport,
     /// Wall seconds of the whole step.
     pub seconds: f64,
+    /// The GPU traffic of the step (GPU engine only).
+    pub traffic: Option<autonomy::splat::gpu::Traffic>,
 }
 
 /// Map quality at held-out views after the run.
@@ -416,6 +418,7 @@ pub fn bench_map(
     width: u32,
     height: u32,
     iterations: usize,
+    frames: usize,
 ) -> std::result::Result<(Vec<MapBenchRow>, MapQuality), autonomy::mapping::MapError> {
     use autonomy::camera::Intrinsics;
     use autonomy::mapping::{Frame, Mapper, MapperConfig};
@@ -429,18 +432,24 @@ pub fn bench_map(
     };
     let mut mapper = Mapper::new(config, engine);
     let mut rows = Vec::new();
-    for (i, camera) in apartment_tour(k).iter().enumerate() {
+    for (i, camera) in apartment_tour(k).iter().take(frames).enumerate() {
         let truth = scene.render(camera);
         let frame = Frame {
             colour: truth.colour,
             depth: truth.depth,
         };
+        let traffic_start = mapper.engine().gpu().map(|g| g.traffic());
         let start = Instant::now();
         let report = mapper.integrate(&frame, &camera.world_from_camera.to_homogeneous(), &k)?;
+        let seconds = start.elapsed().as_secs_f64();
+        let traffic = traffic_start
+            .zip(mapper.engine().gpu().map(|g| g.traffic()))
+            .map(|(a, b)| b - a);
         rows.push(MapBenchRow {
             step: i + 1,
             report,
-            seconds: start.elapsed().as_secs_f64(),
+            seconds,
+            traffic,
         });
     }
     let mut scores = Vec::new();

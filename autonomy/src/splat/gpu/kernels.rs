@@ -169,6 +169,8 @@ pub struct Kernels {
     pub loss: Module,
     /// adam_step.
     pub adam: Module,
+    /// keep_flags, scatter: pruning the resident map.
+    pub compact: Module,
 }
 
 impl Kernels {
@@ -231,6 +233,13 @@ impl Kernels {
                 include_str!("adam.wgsl"),
                 &[Uniform, Read, Write, Write, Write, Write, Write, Read],
                 &["adam_step"],
+            ),
+            compact: Module::new(
+                gpu,
+                "compact",
+                include_str!("compact.wgsl"),
+                &[Uniform, Read, Write, Read, Write],
+                &["keep_flags", "scatter"],
             ),
         }
     }

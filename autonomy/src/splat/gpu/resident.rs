@@ -15,7 +15,7 @@ use crate::adam::{AdamState, AdamStateMut, LearningRates};
 use crate::camera::PinholeCamera;
 use crate::gaussians::Gaussians;
 use crate::loss::LossTerms;
-use crate::splat::{validate_camera, RenderError, TILE};
+use crate::splat::{validate_camera, Images, RenderError, TILE};
 
 /// Floats per Gaussian record (and per moment record): mean xyz, log-radius, logit-opacity,
 /// rgb.
@@ -59,6 +59,15 @@ struct MapBuffers {
     screen: wgpu::Buffer,
     gradients: wgpu::Buffer,
     offsets_scan: ScanPlan,
+    /// Pruning: the host's keep bits, a scratch the kept records are gathered into, the
+    /// uniforms of the two record strides and one binding per array compacted (the map,
+    /// the two moments with stride 8, the step counts with stride 1).
+    keep: wgpu::Buffer,
+    scratch: wgpu::Buffer,
+    compact_params: [wgpu::Buffer; 2],
+    compact: Vec<(wgpu::BindGroup, u32)>,
+    /// The map and the touched flags read back once per mapping step.
+    map_back: wgpu::Buffer,
 }
 
 /// Buffers sized to the image.
@@ -71,6 +80,8 @@ struct ImageBuffers {
     planes: wgpu::Buffer,
     partials: wgpu::Buffer,
     ranges: wgpu::Buffer,
+    /// A render's pixels and its pair count, read back (densification's render).
+    pixels_back: wgpu::Buffer,
 }
 
 /// The (tile, Gaussian) pair buffers, their sort passes and the bindings that use them.
@@ -144,9 +155,11 @@ fn unpack(records: &[f32], g: &mut Gaussians) {
 }
 
 impl ResidentMap {
-    /// Adam's rates from the next [`ResidentMap::load`] on.
-    pub fn set_rates(&mut self, rates: LearningRates) {
+    /// Adam's rates from the next iteration on.
+    pub fn set_rates(&mut self, engine: &GpuRasteriser, rates: LearningRates) {
         self.rates = rates;
+        let capacity = self.pairs.as_ref().map_or(0, |p| p.capacity);
+        self.write_adam_params(engine, capacity);
     }
 
     /// An empty resident map on `engine`'s device, fitted with Adam at `rates`.
@@ -287,17 +300,10 @@ impl ResidentMap {
         let gpu = &engine.gpu;
         let n = gaussians.len();
         engine.check_size(n, 0)?;
-        if self.map.as_ref().is_none_or(|m| m.capacity < n) {
-            let capacity = n.next_power_of_two().max(1024);
-            self.map = Some(self.map_buffers(engine, capacity));
-            self.project = None;
-            self.loss = None;
-            self.pairs = None;
-        }
+        self.reserve(engine, n)?;
         let Some(map) = &self.map else {
-            unreachable!("made above")
+            unreachable!("reserved above")
         };
-        self.count = n;
         gpu.write(&map.gaussians, 0, &pack(gaussians));
         let moments = |g: &Gaussians| {
             let mut packed = pack(g);
@@ -312,11 +318,7 @@ impl ResidentMap {
         let mut encoder = gpu.encoder();
         encoder.clear_buffer(&map.touched, 0, None);
         gpu.submit(encoder)?;
-        for view in &self.views {
-            gpu.write(&view.params, COUNT_OFFSET, &[n as u32]);
-        }
-        let capacity = self.pairs.as_ref().map_or(0, |p| p.capacity);
-        self.write_adam_params(engine, capacity);
+        self.set_count(engine, n);
         Ok(())
     }
 
@@ -339,19 +341,189 @@ impl ResidentMap {
         let c = capacity as u64;
         let offsets = gpu.storage("pair offsets", c * 4);
         let offsets_scan = engine.kernels.scan_plan(gpu, &offsets, capacity as u32);
+        let record = c * RECORD as u64 * 4;
+        let gaussians = gpu.storage("gaussians", record);
+        let first = gpu.storage("adam first moments", record);
+        let second = gpu.storage("adam second moments", record);
+        let steps = gpu.storage("adam steps", c * 4);
+        let keep = gpu.storage("keep bits", c.div_ceil(32) * 4);
+        let scratch = gpu.storage("compaction scratch", record);
+        let compact_params: [wgpu::Buffer; 2] = std::array::from_fn(|_| {
+            gpu.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("compact params"),
+                size: 16,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        });
+        let compact = [(&gaussians, 0usize), (&first, 0), (&second, 0), (&steps, 1)]
+            .iter()
+            .map(|(array, which)| {
+                let bind = engine.kernels.compact.bind(
+                    gpu,
+                    &[&compact_params[*which], &keep, &offsets, array, &scratch],
+                );
+                (bind, if *which == 0 { RECORD as u32 } else { 1 })
+            })
+            .collect();
         MapBuffers {
             capacity,
-            gaussians: gpu.storage("gaussians", c * RECORD as u64 * 4),
-            first: gpu.storage("adam first moments", c * RECORD as u64 * 4),
-            second: gpu.storage("adam second moments", c * RECORD as u64 * 4),
-            steps: gpu.storage("adam steps", c * 4),
             touched: gpu.storage("touched", c * 4),
             splats: gpu.storage("splats", c * SPLAT_BYTES),
             rects: gpu.storage("tile rects", c * 16),
             screen: gpu.storage("screen gradients", c * 36),
             gradients: gpu.storage("gradients", c * 36),
+            map_back: gpu.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("map read-back"),
+                size: record + c * 4,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            gaussians,
+            first,
+            second,
+            steps,
             offsets,
             offsets_scan,
+            keep,
+            scratch,
+            compact_params,
+            compact,
+        }
+    }
+
+    /// Makes room for `n` Gaussians: the map's buffers doubled until they fit, the records,
+    /// moments and step counts of the resident Gaussians copied over on the GPU.
+    fn reserve(&mut self, engine: &GpuRasteriser, n: usize) -> Result<(), RenderError> {
+        if self.map.as_ref().is_some_and(|m| m.capacity >= n) {
+            return Ok(());
+        }
+        let capacity = n.next_power_of_two().max(1024);
+        let grown = self.map_buffers(engine, capacity);
+        if let Some(old) = &self.map {
+            let count = self.count as u64;
+            let mut e = engine.gpu.encoder();
+            for (from, to, bytes) in [
+                (&old.gaussians, &grown.gaussians, count * RECORD as u64 * 4),
+                (&old.first, &grown.first, count * RECORD as u64 * 4),
+                (&old.second, &grown.second, count * RECORD as u64 * 4),
+                (&old.steps, &grown.steps, count * 4),
+                (&old.touched, &grown.touched, count * 4),
+            ] {
+                if bytes > 0 {
+                    e.copy_buffer_to_buffer(from, 0, to, 0, bytes);
+                }
+            }
+            engine.gpu.enqueue(e);
+        }
+        tracing::debug!(capacity, "resident map grown");
+        self.map = Some(grown);
+        self.project = None;
+        self.loss = None;
+        self.pairs = None;
+        Ok(())
+    }
+
+    /// Tells every view and Adam how many Gaussians are resident.
+    fn set_count(&mut self, engine: &GpuRasteriser, n: usize) {
+        self.count = n;
+        for view in &self.views {
+            engine.gpu.write(&view.params, COUNT_OFFSET, &[n as u32]);
+        }
+        let capacity = self.pairs.as_ref().map_or(0, |p| p.capacity);
+        self.write_adam_params(engine, capacity);
+    }
+
+    /// Appends the Gaussians the host pushed since the resident map was last in step with it
+    /// (indices from [`Self::len`] on; densification only pushes) with fresh Adam state:
+    /// only they are uploaded, the moments and step counts of their slots cleared on the GPU.
+    pub fn append(
+        &mut self,
+        engine: &GpuRasteriser,
+        gaussians: &Gaussians,
+    ) -> Result<(), RenderError> {
+        let (from, n) = (self.count, gaussians.len());
+        if n < from {
+            return Err(RenderError::Gpu(format!(
+                "{n} Gaussians given to append to the {from} resident; load the map instead"
+            )));
+        }
+        if n == from {
+            return Ok(());
+        }
+        gaussians.validate()?;
+        engine.check_size(n, 0)?;
+        self.reserve(engine, n)?;
+        let Some(map) = &self.map else {
+            unreachable!("reserved above")
+        };
+        let new = pack(gaussians)[from..].to_vec();
+        let record = (RECORD * 4) as u64;
+        engine.gpu.write(&map.gaussians, from as u64 * record, &new);
+        let mut e = engine.gpu.encoder();
+        let added = (n - from) as u64;
+        e.clear_buffer(&map.first, from as u64 * record, Some(added * record));
+        e.clear_buffer(&map.second, from as u64 * record, Some(added * record));
+        e.clear_buffer(&map.steps, from as u64 * 4, Some(added * 4));
+        e.clear_buffer(&map.touched, from as u64 * 4, Some(added * 4));
+        engine.gpu.enqueue(e);
+        self.set_count(engine, n);
+        Ok(())
+    }
+
+    /// Drops the Gaussians whose `keep` is false, as the host's map and Adam's `retain` do:
+    /// the host uploads one bit per Gaussian and the GPU compacts the map, the moments and
+    /// the step counts in one submit (a prefix sum of the kept, then a gather).
+    pub fn retain(&mut self, engine: &GpuRasteriser, keep: &[bool]) -> Result<(), RenderError> {
+        let n = self.count;
+        if keep.len() != n {
+            return Err(RenderError::Gpu(format!(
+                "{} keep flags for {n} resident Gaussians",
+                keep.len()
+            )));
+        }
+        let kept = keep.iter().filter(|k| **k).count();
+        if kept == n {
+            return Ok(());
+        }
+        let Some(map) = &self.map else {
+            unreachable!("a non-empty resident map has buffers")
+        };
+        let mut bits = vec![0u32; n.div_ceil(32)];
+        for (i, _) in keep.iter().enumerate().filter(|(_, k)| **k) {
+            bits[i / 32] |= 1 << (i % 32);
+        }
+        let gpu = &engine.gpu;
+        gpu.write(&map.keep, 0, &bits);
+        for (params, stride) in map.compact_params.iter().zip([RECORD as u32, 1]) {
+            gpu.write(params, 0, &[n as u32, stride, 0, 0]);
+        }
+        let k = &engine.kernels;
+        let groups = linear_groups(n as u32);
+        let mut e = gpu.encoder();
+        e.clear_buffer(&map.offsets, 0, None);
+        k.compact
+            .dispatch(&mut e, "keep_flags", &map.compact[0].0, groups);
+        map.offsets_scan.record(k, &mut e);
+        let targets = [&map.gaussians, &map.first, &map.second, &map.steps];
+        for ((bind, stride), target) in map.compact.iter().zip(targets) {
+            k.compact.dispatch(&mut e, "scatter", bind, groups);
+            let bytes = kept as u64 * u64::from(*stride) * 4;
+            if bytes > 0 {
+                e.copy_buffer_to_buffer(&map.scratch, 0, target, 0, bytes);
+            }
+        }
+        gpu.enqueue(e);
+        self.set_count(engine, kept);
+        Ok(())
+    }
+
+    /// Starts a mapping step on the resident map: no Gaussian touched yet.
+    pub fn begin_step(&mut self, engine: &GpuRasteriser) {
+        if let Some(map) = &self.map {
+            let mut e = engine.gpu.encoder();
+            e.clear_buffer(&map.touched, 0, None);
+            engine.gpu.enqueue(e);
         }
     }
 
@@ -369,6 +541,12 @@ impl ResidentMap {
             planes: gpu.storage("loss planes", n * 9 * 4),
             partials: gpu.storage("loss partial sums", n.div_ceil(u64::from(GROUP)) * 16),
             ranges: gpu.storage("tile ranges", tiles * 8),
+            pixels_back: gpu.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("pixels read-back"),
+                size: n * PIXEL_FLOATS as u64 * 4 + 16,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
         }
     }
 
@@ -551,15 +729,7 @@ impl ResidentMap {
         engine: &GpuRasteriser,
         view: usize,
     ) -> Result<LossTerms, RenderError> {
-        let size = match self.views.get(view) {
-            Some(v) => v.size,
-            None => {
-                return Err(RenderError::Gpu(format!(
-                    "view {view} does not exist ({} uploaded)",
-                    self.views.len()
-                )))
-            }
-        };
+        let size = self.view_size(view)?;
         self.prepare(engine, size)?;
         loop {
             let (terms, pairs) = self.record_and_run(engine, view)?;
@@ -568,18 +738,121 @@ impl ResidentMap {
                 return Ok(terms);
             }
             // Overflowed: nothing was applied; grow and repeat.
-            let limit = (engine.gpu.max_binding / 4) as u32;
-            if capacity >= limit {
-                return Err(RenderError::Gpu(format!(
-                    "{pairs} (tile, Gaussian) pairs exceed the adapter's binding limit of {limit}; \
-                     use --engine cpu or fewer Gaussians"
-                )));
-            }
-            let grown = pairs.next_power_of_two().min(limit);
-            tracing::debug!(pairs, grown, "resident pair buffers grown");
-            self.pairs = Some(self.pair_buffers(engine, grown));
-            self.write_adam_params(engine, grown);
+            self.grow_pairs(engine, pairs)?;
         }
+    }
+
+    /// Renders the resident map at view `view` (colour, depth, silhouette) and reads the
+    /// pixels back: densification's render, without uploading the map.
+    pub fn render(&mut self, engine: &GpuRasteriser, view: usize) -> Result<Images, RenderError> {
+        let size = self.view_size(view)?;
+        self.prepare(engine, size)?;
+        let (w, h) = (size.0 as usize, size.1 as usize);
+        let floats = w * h * PIXEL_FLOATS;
+        loop {
+            let (Some(image), Some(pairs)) = (&self.image, &self.pairs) else {
+                unreachable!("prepare made every buffer")
+            };
+            let mut e = engine.gpu.encoder();
+            self.record_render(engine, &mut e, view);
+            let Some(map) = &self.map else {
+                unreachable!("prepare made every buffer")
+            };
+            let bytes = (floats * 4) as u64;
+            e.copy_buffer_to_buffer(&image.pixels, 0, &image.pixels_back, 0, bytes);
+            e.copy_buffer_to_buffer(&map.offsets_scan.total, 0, &image.pixels_back, bytes, 4);
+            engine.gpu.enqueue(e);
+            let back = engine.gpu.map_read(&image.pixels_back, floats * 4 + 4)?;
+            let needed = u32::from_le_bytes([
+                back[floats * 4],
+                back[floats * 4 + 1],
+                back[floats * 4 + 2],
+                back[floats * 4 + 3],
+            ]);
+            if needed <= pairs.capacity {
+                let values: Vec<f32> = bytemuck::pod_collect_to_vec(&back[..floats * 4]);
+                let mut images = Images::zeros(w, h);
+                for (p, v) in values.chunks_exact(PIXEL_FLOATS).enumerate() {
+                    images.colour[3 * p..3 * p + 3].copy_from_slice(&v[..3]);
+                    images.depth[p] = v[3];
+                    images.silhouette[p] = v[4];
+                }
+                return Ok(images);
+            }
+            self.grow_pairs(engine, needed)?;
+        }
+    }
+
+    /// The pair buffers grown to hold `needed` pairs (doubled), or an error past the
+    /// adapter's binding limit.
+    fn grow_pairs(&mut self, engine: &GpuRasteriser, needed: u32) -> Result<(), RenderError> {
+        let capacity = self.pairs.as_ref().map_or(0, |p| p.capacity);
+        let limit = (engine.gpu.max_binding / 4) as u32;
+        if capacity >= limit {
+            return Err(RenderError::Gpu(format!(
+                "{needed} (tile, Gaussian) pairs exceed the adapter's binding limit of {limit}; \
+                 use --engine cpu or fewer Gaussians"
+            )));
+        }
+        let grown = needed.next_power_of_two().min(limit);
+        tracing::debug!(needed, grown, "resident pair buffers grown");
+        self.pairs = Some(self.pair_buffers(engine, grown));
+        self.write_adam_params(engine, grown);
+        Ok(())
+    }
+
+    /// The size of view `view`, or an error when there is no such view.
+    fn view_size(&self, view: usize) -> Result<(u32, u32), RenderError> {
+        match self.views.get(view) {
+            Some(v) => Ok(v.size),
+            None => Err(RenderError::Gpu(format!(
+                "view {view} does not exist ({} uploaded)",
+                self.views.len()
+            ))),
+        }
+    }
+
+    /// Records the render of view `view` into `e`: its camera into the shared uniform,
+    /// projection, binning, the pairs' sort, the tile ranges and the forward pass.
+    fn record_render(&self, engine: &GpuRasteriser, e: &mut wgpu::CommandEncoder, view: usize) {
+        let k = &engine.kernels;
+        let (Some(map), Some(image), Some(pairs), Some(project), Some(v)) = (
+            &self.map,
+            &self.image,
+            &self.pairs,
+            &self.project,
+            self.views.get(view),
+        ) else {
+            unreachable!("prepare made every buffer")
+        };
+        let count = self.count as u32;
+        let tiles = (
+            v.size.0.div_ceil(TILE as u32),
+            v.size.1.div_ceil(TILE as u32),
+        );
+        e.copy_buffer_to_buffer(
+            &v.params,
+            0,
+            &self.params,
+            0,
+            std::mem::size_of::<GpuParams>() as u64,
+        );
+        e.clear_buffer(&map.offsets, 0, None);
+        e.clear_buffer(&image.ranges, 0, None);
+        e.clear_buffer(&map.screen, 0, None);
+        let groups = linear_groups(count);
+        k.project.dispatch(e, "project", project, groups);
+        k.bin.dispatch(e, "count_pairs", &pairs.bin, groups);
+        map.offsets_scan.record(k, e);
+        k.bin.dispatch(e, "emit_pairs", &pairs.bin, groups);
+        let pair_groups = linear_groups(pairs.capacity);
+        for bind in &pairs.sort_passes {
+            k.sort.dispatch(e, "histogram_pass", bind, pair_groups);
+            pairs.histogram_scan.record(k, e);
+            k.sort.dispatch(e, "scatter_pass", bind, pair_groups);
+        }
+        k.bin.dispatch(e, "tile_ranges", &pairs.ranges, pair_groups);
+        k.forward.dispatch(e, "forward", &pairs.forward, tiles);
     }
 
     fn record_and_run(
@@ -606,31 +879,9 @@ impl ResidentMap {
             v.size.1.div_ceil(TILE as u32),
         );
         let mut e = gpu.encoder();
-        e.copy_buffer_to_buffer(
-            &v.params,
-            0,
-            &self.params,
-            0,
-            std::mem::size_of::<GpuParams>() as u64,
-        );
         e.copy_buffer_to_buffer(&v.frame, 0, &image.frame, 0, v.frame.size());
-        e.clear_buffer(&map.offsets, 0, None);
-        e.clear_buffer(&image.ranges, 0, None);
-        e.clear_buffer(&map.screen, 0, None);
+        self.record_render(engine, &mut e, view);
         let groups = linear_groups(count);
-        k.project.dispatch(&mut e, "project", project, groups);
-        k.bin.dispatch(&mut e, "count_pairs", &pairs.bin, groups);
-        map.offsets_scan.record(k, &mut e);
-        k.bin.dispatch(&mut e, "emit_pairs", &pairs.bin, groups);
-        let pair_groups = linear_groups(pairs.capacity);
-        for bind in &pairs.sort_passes {
-            k.sort.dispatch(&mut e, "histogram_pass", bind, pair_groups);
-            pairs.histogram_scan.record(k, &mut e);
-            k.sort.dispatch(&mut e, "scatter_pass", bind, pair_groups);
-        }
-        k.bin
-            .dispatch(&mut e, "tile_ranges", &pairs.ranges, pair_groups);
-        k.forward.dispatch(&mut e, "forward", &pairs.forward, tiles);
         let pixel_groups = linear_groups(pixel_count);
         for entry in ["loss_h", "loss_v", "loss_bh", "loss_bv"] {
             k.loss.dispatch(&mut e, entry, loss, pixel_groups);
@@ -656,8 +907,48 @@ impl ResidentMap {
         ))
     }
 
+    /// Copies the map and which Gaussians any iteration since [`Self::begin_step`] touched
+    /// back to the host: the one read-back of a mapping step (Adam's state stays on the GPU).
+    pub fn store_map(
+        &self,
+        engine: &GpuRasteriser,
+        gaussians: &mut Gaussians,
+        touched: &mut [bool],
+    ) -> Result<(), RenderError> {
+        let n = self.count;
+        if gaussians.len() != n || touched.len() != n {
+            return Err(RenderError::Gpu(format!(
+                "{} Gaussians and {} touched flags given back for {n} resident",
+                gaussians.len(),
+                touched.len()
+            )));
+        }
+        let Some(map) = &self.map else {
+            return Ok(());
+        };
+        if n == 0 {
+            return Ok(());
+        }
+        let record = (n * RECORD * 4) as u64;
+        let flags = (n * 4) as u64;
+        let mut e = engine.gpu.encoder();
+        e.copy_buffer_to_buffer(&map.gaussians, 0, &map.map_back, 0, record);
+        e.copy_buffer_to_buffer(&map.touched, 0, &map.map_back, record, flags);
+        engine.gpu.enqueue(e);
+        let bytes = engine
+            .gpu
+            .map_read(&map.map_back, (record + flags) as usize)?;
+        let floats: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes[..record as usize]);
+        let words: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[record as usize..]);
+        unpack(&floats, gaussians);
+        for (t, w) in touched.iter_mut().zip(&words) {
+            *t |= *w != 0;
+        }
+        Ok(())
+    }
+
     /// Copies the map, Adam's state and which Gaussians any iteration since [`Self::load`]
-    /// touched back to the host: the one read-back of a mapping step.
+    /// touched back to the host (tests and benchmarks compare Adam's state with the CPU's).
     pub fn store(
         &self,
         engine: &GpuRasteriser,
