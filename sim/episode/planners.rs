@@ -354,6 +354,10 @@ pub fn build_explorer(
     options: &PlannerOptions,
     context: PlannerContext,
 ) -> Result<Box<dyn Planner>> {
+    // Whatever `--engine` picks for the splats: on the only GPU measured (an H200) the GPU's
+    // check was 10x (1e5 Gaussians) and 5x (3e6) slower than the CPU grid (BENCHMARKS.md,
+    // "Collision checks: the CPU grid"), so the planners always check on the grid.
+    tracing::info!("collision checks: the CPU hash grid (faster than the GPU check at every measured map size)");
     Ok(match kind {
         PlannerKind::RtGuide => {
             let mut config = PlannerConfig::default();
