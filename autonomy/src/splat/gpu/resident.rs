@@ -126,6 +126,21 @@ impl std::fmt::Debug for ResidentMap {
     }
 }
 
+/// What [`ResidentMap::prepare`] made, borrowed for recording an iteration or a render.
+struct Prepared<'a> {
+    map: &'a MapBuffers,
+    image: &'a ImageBuffers,
+    pairs: &'a PairBuffers,
+    project: &'a wgpu::BindGroup,
+    loss: &'a wgpu::BindGroup,
+    view: &'a View,
+}
+
+/// Tiles across and down an image of `size` pixels.
+fn tile_grid(size: (u32, u32)) -> (u32, u32) {
+    (size.0.div_ceil(TILE as u32), size.1.div_ceil(TILE as u32))
+}
+
 /// The Gaussians as the kernels' 8-float records.
 pub(super) fn pack(g: &Gaussians) -> Vec<[f32; RECORD]> {
     (0..g.len())
@@ -750,14 +765,11 @@ impl ResidentMap {
         let (w, h) = (size.0 as usize, size.1 as usize);
         let floats = w * h * PIXEL_FLOATS;
         loop {
-            let (Some(image), Some(pairs)) = (&self.image, &self.pairs) else {
-                unreachable!("prepare made every buffer")
-            };
+            let Prepared {
+                map, image, pairs, ..
+            } = self.prepared(view);
             let mut e = engine.gpu.encoder();
             self.record_render(engine, &mut e, view);
-            let Some(map) = &self.map else {
-                unreachable!("prepare made every buffer")
-            };
             let bytes = (floats * 4) as u64;
             e.copy_buffer_to_buffer(&image.pixels, 0, &image.pixels_back, 0, bytes);
             e.copy_buffer_to_buffer(&map.offsets_scan.total, 0, &image.pixels_back, bytes, 4);
@@ -812,24 +824,43 @@ impl ResidentMap {
         }
     }
 
-    /// Records the render of view `view` into `e`: its camera into the shared uniform,
-    /// projection, binning, the pairs' sort, the tile ranges and the forward pass.
-    fn record_render(&self, engine: &GpuRasteriser, e: &mut wgpu::CommandEncoder, view: usize) {
-        let k = &engine.kernels;
-        let (Some(map), Some(image), Some(pairs), Some(project), Some(v)) = (
+    /// The buffers and bindings an iteration over `view` records, once [`Self::prepare`] made
+    /// them.
+    fn prepared(&self, view: usize) -> Prepared<'_> {
+        let (Some(map), Some(image), Some(pairs), Some(project), Some(loss), Some(view)) = (
             &self.map,
             &self.image,
             &self.pairs,
             &self.project,
+            &self.loss,
             self.views.get(view),
         ) else {
             unreachable!("prepare made every buffer")
         };
+        Prepared {
+            map,
+            image,
+            pairs,
+            project,
+            loss,
+            view,
+        }
+    }
+
+    /// Records the render of view `view` into `e`: its camera into the shared uniform,
+    /// projection, binning, the pairs' sort, the tile ranges and the forward pass.
+    fn record_render(&self, engine: &GpuRasteriser, e: &mut wgpu::CommandEncoder, view: usize) {
+        let k = &engine.kernels;
+        let Prepared {
+            map,
+            image,
+            pairs,
+            project,
+            view: v,
+            ..
+        } = self.prepared(view);
         let count = self.count as u32;
-        let tiles = (
-            v.size.0.div_ceil(TILE as u32),
-            v.size.1.div_ceil(TILE as u32),
-        );
+        let tiles = tile_grid(v.size);
         e.copy_buffer_to_buffer(
             &v.params,
             0,
@@ -862,22 +893,17 @@ impl ResidentMap {
     ) -> Result<(LossTerms, u32), RenderError> {
         let gpu = &engine.gpu;
         let k = &engine.kernels;
-        let (Some(map), Some(image), Some(pairs), Some(project), Some(loss), Some(v)) = (
-            &self.map,
-            &self.image,
-            &self.pairs,
-            &self.project,
-            &self.loss,
-            self.views.get(view),
-        ) else {
-            unreachable!("prepare made every buffer")
-        };
+        let Prepared {
+            map,
+            image,
+            pairs,
+            project,
+            loss,
+            view: v,
+        } = self.prepared(view);
         let count = self.count as u32;
         let pixel_count = v.size.0 * v.size.1;
-        let tiles = (
-            v.size.0.div_ceil(TILE as u32),
-            v.size.1.div_ceil(TILE as u32),
-        );
+        let tiles = tile_grid(v.size);
         let mut e = gpu.encoder();
         e.copy_buffer_to_buffer(&v.frame, 0, &image.frame, 0, v.frame.size());
         self.record_render(engine, &mut e, view);
