@@ -221,7 +221,7 @@ pub struct Mapper {
     /// Adam's moments persist across steps (grown on densify, filtered on prune): a Gaussian
     /// that has settled takes small steps, a new one full steps, which is what makes the
     /// displacement a measure of uncertainty. With the GPU engine the moments live in the
-    /// resident map (this copy keeps only the rates and seeds a reload).
+    /// resident map (this copy keeps only the rates and stays empty).
     adam: Adam,
     /// SplaTAM's scene radius: the largest measured depth so far / 3.
     scene_radius: f32,
@@ -339,7 +339,7 @@ impl Mapper {
         let t1 = Instant::now();
         let before = self.map.gaussians.means.clone();
         let mut touched = vec![false; self.map.len()];
-        self.adam.resize(self.map.len());
+        self.resize_host_adam();
         let views: Vec<Option<usize>> = (0..self.config.iterations)
             .map(|iteration| {
                 (iteration % 3 == 2 && !window.is_empty())
@@ -393,7 +393,7 @@ impl Mapper {
         self.refine_next = (self.refine_next + self.config.iterations) % count;
         let before = self.map.gaussians.means.clone();
         let mut touched = vec![false; self.map.len()];
-        self.adam.resize(self.map.len());
+        self.resize_host_adam();
         report.window = count.min(views.len());
         // No new information: late-training rates, so the map settles instead of moving on
         // (at the mapping rates, hundreds of such iterations lowered every held-out view's
@@ -425,10 +425,13 @@ impl Mapper {
     fn grow(&mut self, frame: &Frame, camera: &PinholeCamera) -> Result<usize, MapError> {
         let engine = self.engine.clone();
         let added = if let Some(gpu) = engine.gpu() {
-            self.ensure_resident(gpu)?;
-            let Some(state) = self.resident.as_mut() else {
-                unreachable!("made above")
-            };
+            let state = resident_views(
+                &mut self.resident,
+                gpu,
+                &self.map,
+                &self.adam,
+                &self.keyframes,
+            )?;
             let view = match state.current {
                 Some(slot) => {
                     state
@@ -477,25 +480,6 @@ impl Mapper {
         Ok(added)
     }
 
-    /// The GPU engine's resident map, made on first use (or after a failed step dropped it):
-    /// the host's map, Adam's state and the keyframes uploaded once.
-    fn ensure_resident(&mut self, gpu: &GpuRasteriser) -> Result<(), MapError> {
-        if self.resident.is_none() {
-            let mut map = ResidentMap::new(gpu, self.adam.rates);
-            map.load(gpu, &self.map.gaussians, self.adam.state())?;
-            let mut keyframes = Vec::with_capacity(self.keyframes.len());
-            for kf in &self.keyframes {
-                keyframes.push(map.add_view(gpu, &kf.camera, &kf.frame.colour, &kf.frame.depth)?);
-            }
-            self.resident = Some(ResidentViews {
-                map,
-                current: None,
-                keyframes,
-            });
-        }
-        Ok(())
-    }
-
     /// The keyframes of the window (those that see most of the frame, at most `window`),
     /// and the best overlap of any keyframe with the frame.
     fn choose_keyframes(&self, frame: &Frame, camera: &PinholeCamera) -> (Vec<usize>, f64) {
@@ -526,10 +510,13 @@ impl Mapper {
             return Ok(None);
         };
         let rates = self.adam.rates;
-        self.ensure_resident(gpu)?;
-        let Some(state) = self.resident.as_mut() else {
-            unreachable!("made above")
-        };
+        let state = resident_views(
+            &mut self.resident,
+            gpu,
+            &self.map,
+            &self.adam,
+            &self.keyframes,
+        )?;
         let mut loss = (0.0, 0.0);
         state.map.set_rates(gpu, rates);
         state.map.begin_step(gpu);
@@ -590,6 +577,14 @@ impl Mapper {
         Ok(loss)
     }
 
+    /// Sizes the host's Adam state to the map; with the GPU engine the state lives on the GPU
+    /// and the host's stays empty (a reload starts its moments at zero).
+    fn resize_host_adam(&mut self) {
+        if !self.engine.is_gpu() {
+            self.adam.resize(self.map.len());
+        }
+    }
+
     /// Uncertainty: how far this step moved each Gaussian it touched.
     fn update_uncertainty(&mut self, before: &[[f32; 3]], touched: &[bool]) {
         for (i, moved) in touched.iter().enumerate() {
@@ -618,10 +613,10 @@ impl Mapper {
         let pruned = keep.iter().filter(|k| !**k).count();
         if pruned > 0 {
             self.map.retain(&keep);
-            self.adam.retain(&keep);
             let engine = self.engine.clone();
-            if let (Some(gpu), Some(state)) = (engine.gpu(), self.resident.as_mut()) {
-                state.map.retain(gpu, &keep)?;
+            match (engine.gpu(), self.resident.as_mut()) {
+                (Some(gpu), Some(state)) => state.map.retain(gpu, &keep)?,
+                _ => self.adam.retain(&keep),
             }
         }
 
@@ -654,6 +649,32 @@ impl Mapper {
         self.resident = None;
         self.adam = Adam::new(self.config.rates);
     }
+}
+
+/// The GPU engine's resident map, made on first use (or after a failed step dropped it): the
+/// host's map, Adam's state and the keyframes uploaded once. It borrows only the fields it
+/// reads, so the caller may change the host's map while holding it.
+fn resident_views<'a>(
+    resident: &'a mut Option<ResidentViews>,
+    gpu: &GpuRasteriser,
+    map: &GaussianMap,
+    adam: &Adam,
+    keyframes: &[Keyframe],
+) -> Result<&'a mut ResidentViews, MapError> {
+    if let Some(state) = resident {
+        return Ok(state);
+    }
+    let mut resident_map = ResidentMap::new(gpu, adam.rates);
+    resident_map.load(gpu, &map.gaussians, adam.state())?;
+    let mut views = Vec::with_capacity(keyframes.len());
+    for kf in keyframes {
+        views.push(resident_map.add_view(gpu, &kf.camera, &kf.frame.colour, &kf.frame.depth)?);
+    }
+    Ok(resident.insert(ResidentViews {
+        map: resident_map,
+        current: None,
+        keyframes: views,
+    }))
 }
 
 #[cfg(test)]

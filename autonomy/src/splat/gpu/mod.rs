@@ -47,6 +47,17 @@ const SPLAT_BYTES: u64 = 48;
 /// Floats per pixel of the forward output.
 const PIXEL_FLOATS: usize = 7;
 
+/// Copies the forward kernel's pixels (`PIXEL_FLOATS` each) into `images` from pixel `first`
+/// on: colour, depth, silhouette.
+fn unpack_pixels(values: &[f32], first: usize, images: &mut Images) {
+    for (i, v) in values.chunks_exact(PIXEL_FLOATS).enumerate() {
+        let p = first + i;
+        images.colour[3 * p..3 * p + 3].copy_from_slice(&v[..3]);
+        images.depth[p] = v[3];
+        images.silhouette[p] = v[4];
+    }
+}
+
 /// The engine: a device and its compiled kernels.
 pub struct GpuRasteriser {
     gpu: GpuDevice,
@@ -453,12 +464,7 @@ impl GpuRasteriser {
             let first = band.rows.0 as usize * TILE * w;
             let count = (band.rows.1 as usize * TILE).min(h) * w - first;
             let values: Vec<f32> = gpu.read(encoder, &band.pixels, count * PIXEL_FLOATS)?;
-            for (i, v) in values.chunks_exact(PIXEL_FLOATS).enumerate() {
-                let p = first + i;
-                images.colour[3 * p..3 * p + 3].copy_from_slice(&v[..3]);
-                images.depth[p] = v[3];
-                images.silhouette[p] = v[4];
-            }
+            unpack_pixels(&values, first, &mut images);
         }
         Ok(GpuRender {
             images,

@@ -10,7 +10,7 @@
 //! buffers and repeats that iteration; after the first iterations the capacity fits.
 
 use super::kernels::{linear_groups, ScanPlan, GROUP};
-use super::{GpuParams, GpuRasteriser, PIXEL_FLOATS, SPLAT_BYTES};
+use super::{unpack_pixels, GpuParams, GpuRasteriser, PIXEL_FLOATS, SPLAT_BYTES};
 use crate::adam::{AdamState, AdamStateMut, LearningRates};
 use crate::camera::PinholeCamera;
 use crate::gaussians::Gaussians;
@@ -143,7 +143,12 @@ fn tile_grid(size: (u32, u32)) -> (u32, u32) {
 
 /// The Gaussians as the kernels' 8-float records.
 pub(super) fn pack(g: &Gaussians) -> Vec<[f32; RECORD]> {
-    (0..g.len())
+    pack_range(g, 0..g.len())
+}
+
+/// Gaussians `range` as the kernels' 8-float records (appending packs only the new ones).
+fn pack_range(g: &Gaussians, range: std::ops::Range<usize>) -> Vec<[f32; RECORD]> {
+    range
         .map(|i| {
             let (m, c) = (g.means[i], g.colours[i]);
             [
@@ -315,7 +320,7 @@ impl ResidentMap {
         let gpu = &engine.gpu;
         let n = gaussians.len();
         engine.check_size(n, 0)?;
-        self.reserve(engine, n)?;
+        self.reserve(engine, n);
         let Some(map) = &self.map else {
             unreachable!("reserved above")
         };
@@ -409,9 +414,9 @@ impl ResidentMap {
 
     /// Makes room for `n` Gaussians: the map's buffers doubled until they fit, the records,
     /// moments and step counts of the resident Gaussians copied over on the GPU.
-    fn reserve(&mut self, engine: &GpuRasteriser, n: usize) -> Result<(), RenderError> {
+    fn reserve(&mut self, engine: &GpuRasteriser, n: usize) {
         if self.map.as_ref().is_some_and(|m| m.capacity >= n) {
-            return Ok(());
+            return;
         }
         let capacity = n.next_power_of_two().max(1024);
         let grown = self.map_buffers(engine, capacity);
@@ -436,7 +441,6 @@ impl ResidentMap {
         self.project = None;
         self.loss = None;
         self.pairs = None;
-        Ok(())
     }
 
     /// Tells every view and Adam how many Gaussians are resident.
@@ -468,11 +472,11 @@ impl ResidentMap {
         }
         gaussians.validate()?;
         engine.check_size(n, 0)?;
-        self.reserve(engine, n)?;
+        self.reserve(engine, n);
         let Some(map) = &self.map else {
             unreachable!("reserved above")
         };
-        let new = pack(gaussians)[from..].to_vec();
+        let new = pack_range(gaussians, from..n);
         let record = (RECORD * 4) as u64;
         engine.gpu.write(&map.gaussians, from as u64 * record, &new);
         let mut e = engine.gpu.encoder();
@@ -784,11 +788,7 @@ impl ResidentMap {
             if needed <= pairs.capacity {
                 let values: Vec<f32> = bytemuck::pod_collect_to_vec(&back[..floats * 4]);
                 let mut images = Images::zeros(w, h);
-                for (p, v) in values.chunks_exact(PIXEL_FLOATS).enumerate() {
-                    images.colour[3 * p..3 * p + 3].copy_from_slice(&v[..3]);
-                    images.depth[p] = v[3];
-                    images.silhouette[p] = v[4];
-                }
+                unpack_pixels(&values, 0, &mut images);
                 return Ok(images);
             }
             self.grow_pairs(engine, needed)?;
