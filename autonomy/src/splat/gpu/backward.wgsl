@@ -1,8 +1,9 @@
 // Back-to-front gradients: one 16x16 workgroup per tile, one thread per pixel. For each splat
 // of the tile's list (from the last contributor of any pixel backwards) every pixel computes
 // its share of the splat's 8 screen-space gradients; the workgroup sums them in shared memory
-// and one thread adds the sum to the splat's totals with a compare-and-swap float add (WGSL has
-// no float atomics), so each (tile, splat) pair costs one atomic per gradient, not one per pixel.
+// (two levels, one barrier) and one thread per gradient adds the sum to the splat's totals
+// with a compare-and-swap float add (WGSL has no float atomics), so each (tile, splat) pair
+// costs one atomic per gradient, not one per pixel.
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> splats: array<vec4<f32>>;
@@ -26,6 +27,8 @@ var<workgroup> radius: array<f32, BATCH>;
 var<workgroup> index: array<u32, BATCH>;
 var<workgroup> point: array<vec3<f32>, BATCH>;
 var<workgroup> partial: array<array<f32, 8>, 256>;
+// Per thread: one gradient summed over 8 of the tile's pixels (the reduction's first level).
+var<workgroup> sums: array<f32, 256>;
 var<workgroup> flag: atomic<u32>;
 var<workgroup> snapshot: u32;
 
@@ -172,16 +175,24 @@ fn walk(local: vec3<u32>, lid: u32, wid: vec3<u32>, squared: bool) {
                 atomicStore(&flag, 0u);
             }
             if (workgroupUniformLoad(&snapshot) != 0u) {
-                for (var stride = GROUP / 2u; stride > 0u; stride /= 2u) {
-                    if (lid < stride) {
-                        for (var k = 0u; k < 8u; k++) {
-                            partial[lid][k] += partial[lid + stride][k];
-                        }
-                    }
-                    workgroupBarrier();
+                // Two levels, one barrier between them (a tree of halvings needs eight): each
+                // thread adds one gradient over 8 pixels 32 apart (neighbouring threads read
+                // neighbouring words, so no two threads of 32 share a memory bank), then 8
+                // threads add their gradient's 32 partial sums.
+                let k = lid % 8u;
+                let chunk = lid / 8u;
+                var sum = 0.0;
+                for (var i = 0u; i < 8u; i++) {
+                    sum += partial[chunk + 32u * i][k];
                 }
+                sums[lid] = sum;
+                workgroupBarrier();
                 if (lid < 8u) {
-                    atomic_add_f32(9u * index[j] + lid, partial[0][lid]);
+                    var total = 0.0;
+                    for (var c = 0u; c < 32u; c++) {
+                        total += sums[8u * c + lid];
+                    }
+                    atomic_add_f32(9u * index[j] + lid, total);
                 } else if (lid == 8u) {
                     atomicOr(&screen[9u * index[j] + 8u], 1u);
                 }
