@@ -28,7 +28,10 @@ fn pairs() -> u32 {
 }
 
 var<workgroup> counts: array<atomic<u32>, 256>;
-var<workgroup> digits: array<u32, 256>;
+// 32-bit words of one block's thread bits.
+const WORDS: u32 = 8u;
+// Per digit, the block's threads holding it: one bit each (digit-major, WORDS words a digit).
+var<workgroup> members: array<atomic<u32>, 2048>;
 
 fn digit_of(i: u32) -> u32 {
     let key = select(in_depths[i], in_tiles[i], sort.from_tile == 1u);
@@ -66,21 +69,28 @@ fn scatter_pass(
     if (block >= sort.blocks) {
         return;
     }
+    // One bit per thread in its digit's row: the stable rank is the number of set bits below
+    // its own, 8 words at most (a loop over every earlier thread took up to 255 reads).
+    for (var w = lid; w < 256u * WORDS; w += GROUP) {
+        atomicStore(&members[w], 0u);
+    }
+    workgroupBarrier();
     let i = block * GROUP + lid;
     let valid = i < pairs();
-    var digit = 256u;
+    var digit = 0u;
+    let word = lid / 32u;
+    let bit = lid % 32u;
     if (valid) {
         digit = digit_of(i);
+        atomicOr(&members[digit * WORDS + word], 1u << bit);
     }
-    digits[lid] = digit;
     workgroupBarrier();
     if (!valid) {
         return;
     }
-    // Stable rank: equal digits earlier in the block.
-    var rank = 0u;
-    for (var j = 0u; j < lid; j++) {
-        rank += select(0u, 1u, digits[j] == digit);
+    var rank = countOneBits(atomicLoad(&members[digit * WORDS + word]) & ((1u << bit) - 1u));
+    for (var w = 0u; w < word; w++) {
+        rank += countOneBits(atomicLoad(&members[digit * WORDS + w]));
     }
     let slot = histogram[digit * sort.blocks + block] + rank;
     out_tiles[slot] = in_tiles[i];
