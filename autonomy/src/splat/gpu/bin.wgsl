@@ -27,6 +27,18 @@ fn band_tiles(i: u32) -> vec4<u32> {
     return vec4<u32>(r.x, r.y + 1u, rows.x, rows.y);
 }
 
+// Whether splat i's footprint reaches tile (tx, ty): the tile's pixel nearest the centre lies
+// within the extent (beyond it every alpha is under the minimum). A footprint is round, so
+// the rectangle's corner tiles often hold none of it, and a pair costs a whole tile's threads.
+fn touches(i: u32, tx: u32, ty: u32) -> bool {
+    let s = splats[3u * i];
+    let extent = splats[3u * i + 1u].y;
+    let origin = vec2<f32>(f32(tx * TILE), f32(ty * TILE));
+    let nearest = clamp(s.xy, origin, origin + vec2<f32>(f32(TILE - 1u)));
+    let d = s.xy - nearest;
+    return dot(d, d) <= extent * extent;
+}
+
 @compute @workgroup_size(256)
 fn count_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let i = linear_index(gid, groups);
@@ -34,7 +46,13 @@ fn count_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workg
         return;
     }
     let t = band_tiles(i);
-    offsets[i] = (t.y - t.x) * (t.w - t.z);
+    var n = 0u;
+    for (var ty = t.z; ty < t.w; ty++) {
+        for (var tx = t.x; tx < t.y; tx++) {
+            n += select(0u, 1u, touches(i, tx, ty));
+        }
+    }
+    offsets[i] = n;
 }
 
 @compute @workgroup_size(256)
@@ -50,6 +68,9 @@ fn emit_pairs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgr
     let capacity = arrayLength(&pair_tiles);
     for (var ty = t.z; ty < t.w; ty++) {
         for (var tx = t.x; tx < t.y; tx++) {
+            if (!touches(i, tx, ty)) {
+                continue;
+            }
             if (o >= capacity) {
                 return;
             }
