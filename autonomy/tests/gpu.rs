@@ -323,6 +323,14 @@ fn resident_iterations_match_the_cpu_engine_and_stay_on_the_gpu() {
                     "step {step}: {} bytes read back",
                     one.read_back
                 );
+            } else if i == 2 {
+                // Timed by GPU timestamps: the same iteration (its loss is checked against
+                // the CPU's below like the others), and every pass of it named.
+                let (terms, passes) = gpu
+                    .time_passes(|| resident.iterate(&gpu, i % 2))
+                    .expect("timed iterate");
+                got.push(terms);
+                check_pass_times(passes, width, height);
             } else {
                 got.push(resident.iterate(&gpu, i % 2).expect("iterate"));
             }
@@ -359,4 +367,43 @@ fn resident_iterations_match_the_cpu_engine_and_stay_on_the_gpu() {
         assert_eq!(a.steps, b.steps, "step {step}: Adam's step counts");
         assert_close("first moments", &flat(a.first), &flat(b.first), 1e-4);
     }
+}
+
+/// One resident iteration's passes by kernel: each stage once, the radix sort's passes as
+/// many as the key has bytes (the depth's 4, the tile's 1 here), every time finite.
+fn check_pass_times(passes: Option<autonomy::splat::gpu::PassTimes>, width: u32, height: u32) {
+    let Some(passes) = passes else {
+        eprintln!("SKIPPED: this adapter has no GPU timestamps");
+        return;
+    };
+    let count = |entry: &str| {
+        passes
+            .iter()
+            .find(|(name, _, _)| name == entry)
+            .map_or(0, |(_, n, _)| *n)
+    };
+    for entry in [
+        "project",
+        "count_pairs",
+        "emit_pairs",
+        "forward",
+        "loss_total",
+        "backward",
+        "chain",
+        "adam_step",
+    ] {
+        assert_eq!(count(entry), 1, "passes of {entry}: {passes:?}");
+    }
+    let tiles = width.div_ceil(16) * height.div_ceil(16);
+    let tile_bytes = (32 - (tiles - 1).leading_zeros()).div_ceil(8) as usize;
+    assert_eq!(count("histogram_pass"), 4 + tile_bytes, "{passes:?}");
+    assert_eq!(count("scatter_pass"), 4 + tile_bytes, "{passes:?}");
+    assert!(
+        passes.iter().all(|(_, _, ms)| ms.is_finite() && *ms >= 0.0),
+        "{passes:?}"
+    );
+    assert!(
+        passes.iter().map(|(_, _, ms)| ms).sum::<f64>() > 0.0,
+        "{passes:?}"
+    );
 }

@@ -36,7 +36,9 @@ pub struct BenchArgs {
 pub enum BenchTarget {
     /// RGB-D frames/s at 320x240 and 640x480, physics steps/s.
     Sensor,
-    /// One mapping iteration (forward + loss + backward + Adam) of each splat engine.
+    /// One mapping iteration (forward + loss + backward + Adam) of each splat engine, with the
+    /// GPU's traffic and, where the adapter has timestamps, its resident iteration's GPU time
+    /// per kernel.
     Render,
     /// The mapping loss with its gradient (L1 + SSIM) at 320x240 and 640x480: the serial
     /// reference against the SIMD version on every core.
@@ -85,6 +87,7 @@ fn render(engine: &[EngineChoice], gaussians: &[usize], iterations: usize) -> Re
             iterations.max(1),
         )?;
         print_render_bench(&name, &rows);
+        print_pass_times(&rows);
     }
     Ok(())
 }
@@ -287,6 +290,29 @@ fn print_render_bench(engine: &str, rows: &[crate::bench::RenderBenchRow]) {
             traffic[2],
             traffic[3],
         );
+    }
+}
+
+/// The resident rows' GPU time per kernel (timestamps around each compute pass of one
+/// iteration), one table per row that has them.
+fn print_pass_times(rows: &[crate::bench::RenderBenchRow]) {
+    for r in rows {
+        let Some(passes) = &r.passes else { continue };
+        let total: f64 = passes.iter().map(|(_, _, ms)| ms).sum();
+        println!(
+            "resident iteration by kernel, {}x{}, {} Gaussians (GPU timestamps, one iteration; sum {:.3} ms of {:.3} ms wall):",
+            r.resolution.0,
+            r.resolution.1,
+            r.gaussians,
+            total,
+            r.iteration * 1e3
+        );
+        println!("| kernel | passes | GPU ms | share |");
+        println!("|---|---:|---:|---:|");
+        for (entry, count, ms) in passes {
+            let share = if total > 0.0 { ms / total * 100.0 } else { 0.0 };
+            println!("| {entry} | {count} | {ms:.3} | {share:.1}% |");
+        }
     }
 }
 

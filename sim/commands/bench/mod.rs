@@ -126,6 +126,9 @@ pub struct RenderBenchRow {
     pub iteration: f64,
     /// The GPU traffic of one iteration after warm-up (GPU engine only).
     pub traffic: Option<autonomy::splat::gpu::Traffic>,
+    /// GPU time per kernel of one more resident iteration, from timestamps (resident rows on
+    /// an adapter that has them): where the iteration's time goes.
+    pub passes: Option<autonomy::splat::gpu::PassTimes>,
 }
 
 /// Times mapping iterations (forward + loss + backward + Adam) of `engine` on Gaussians spread
@@ -198,6 +201,7 @@ pub fn bench_render(
                 traffic: traffic_start
                     .zip(traffic)
                     .map(|(start, end)| (end - start).per(iterations as u64)),
+                passes: None,
             });
             if let Some(gpu) = engine.gpu() {
                 rows.push(resident_row(
@@ -235,6 +239,8 @@ fn resident_row(
         times.push(t0.elapsed().as_secs_f64());
     }
     let end = gpu.traffic();
+    // After the timed ones and their traffic: reading the timestamps back costs a submit.
+    let (_, passes) = gpu.time_passes(|| resident.iterate(gpu, view))?;
     times.remove(0); // warm-up
     times.sort_by(f64::total_cmp);
     let traffic = start.map(|s| (end - s).per(iterations as u64));
@@ -247,6 +253,7 @@ fn resident_row(
         stages: None,
         iteration: times[times.len() / 2],
         traffic,
+        passes,
     })
 }
 

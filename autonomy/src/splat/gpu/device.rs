@@ -1,6 +1,7 @@
 //! Opening a wgpu device for compute, and the small buffer chores every kernel needs
 //! (storage buffers, uniforms, read-back), with wgpu's errors turned into values.
 
+use super::timing::{PassTimer, PassTimes};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 use wgpu::util::DeviceExt;
@@ -93,6 +94,8 @@ pub struct GpuDevice {
     pub max_binding: u64,
     errors: Arc<Mutex<Vec<String>>>,
     traffic: TrafficCounters,
+    /// Per-pass GPU timestamps, where the adapter has them.
+    timer: Option<Arc<PassTimer>>,
 }
 
 impl std::fmt::Debug for GpuDevice {
@@ -183,7 +186,8 @@ impl GpuDevice {
         let limits = adapter.limits();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("splatloop splat engine"),
-            required_features: wgpu::Features::empty(),
+            // Timestamps only where the adapter has them: `bench render`'s per-pass table.
+            required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
             required_limits: limits.clone(),
             ..Default::default()
         }))
@@ -202,6 +206,10 @@ impl GpuDevice {
         let max_binding = binding_cap
             .map_or(adapter_max, |cap| cap.min(adapter_max))
             .max(256);
+        let timer = device
+            .features()
+            .contains(wgpu::Features::TIMESTAMP_QUERY)
+            .then(|| Arc::new(PassTimer::new(&device, &queue)));
         Ok(GpuDevice {
             device,
             queue,
@@ -209,6 +217,7 @@ impl GpuDevice {
             max_binding,
             errors,
             traffic: TrafficCounters::default(),
+            timer,
         })
     }
 
@@ -374,6 +383,41 @@ impl GpuDevice {
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| GpuError::Operation(format!("waiting for the GPU: {e}")))?;
         self.check()
+    }
+
+    /// The pass timer the kernels write timestamps through (`None`: the adapter has none).
+    pub(crate) fn timer(&self) -> Option<Arc<PassTimer>> {
+        self.timer.clone()
+    }
+
+    /// Runs `work` with every compute pass it records timed on the GPU, and returns its
+    /// result with the time per kernel entry (`None` where the adapter has no timestamps).
+    /// Reading the timestamps back costs a submit and a buffer, so keep it out of timed runs.
+    pub fn time_passes<T, E: From<GpuError>>(
+        &self,
+        work: impl FnOnce() -> Result<T, E>,
+    ) -> Result<(T, Option<PassTimes>), E> {
+        let Some(timer) = &self.timer else {
+            return Ok((work()?, None));
+        };
+        timer.start();
+        let result = work();
+        let names = timer.stop();
+        let value = result?;
+        if names.is_empty() {
+            return Ok((value, Some(Vec::new())));
+        }
+        let queries = 2 * names.len() as u32;
+        let resolved = self.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("pass timestamps"),
+            size: u64::from(queries) * 8,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self.encoder();
+        encoder.resolve_query_set(timer.queries(), 0..queries, &resolved, 0);
+        let ticks: Vec<u64> = self.read(encoder, &resolved, queries as usize)?;
+        Ok((value, Some(timer.per_entry(&names, &ticks))))
     }
 
     /// A fresh command encoder.

@@ -2,7 +2,9 @@
 //! wider than 65535 groups, the recursive exclusive scan, the radix-sort passes.
 
 use super::device::GpuDevice;
+use super::timing::PassTimer;
 use std::borrow::Cow;
+use std::sync::Arc;
 
 const COMMON: &str = include_str!("common.wgsl");
 /// Threads per group of the 1-D kernels (GROUP in common.wgsl).
@@ -21,6 +23,8 @@ pub(crate) enum Access {
 pub struct Module {
     layout: wgpu::BindGroupLayout,
     pipelines: Vec<(&'static str, wgpu::ComputePipeline)>,
+    /// Timestamps around each pass while `GpuDevice::time_passes` records.
+    timer: Option<Arc<PassTimer>>,
 }
 
 impl Module {
@@ -77,7 +81,11 @@ impl Module {
                 (*entry, pipeline)
             })
             .collect();
-        Module { layout, pipelines }
+        Module {
+            layout,
+            pipelines,
+            timer: gpu.timer(),
+        }
     }
 
     fn pipeline(&self, entry: &str) -> &wgpu::ComputePipeline {
@@ -118,7 +126,7 @@ impl Module {
         }
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some(entry),
-            timestamp_writes: None,
+            timestamp_writes: self.timer.as_ref().and_then(|t| t.writes(entry)),
         });
         pass.set_pipeline(self.pipeline(entry));
         pass.set_bind_group(0, bind, &[]);

@@ -10,9 +10,11 @@
 mod device;
 pub(crate) mod kernels;
 mod resident;
+mod timing;
 
 pub use device::{AdapterPolicy, GpuDevice, GpuError, Traffic};
 pub use resident::ResidentMap;
+pub use timing::PassTimes;
 
 use super::{validate_camera, FisherDiagonal, ImageGradients, Images, RenderError, TILE};
 use crate::camera::PinholeCamera;
@@ -142,6 +144,14 @@ impl GpuRasteriser {
     /// The host's traffic with the device so far (buffers created, submits, bytes each way).
     pub fn traffic(&self) -> Traffic {
         self.gpu.traffic()
+    }
+
+    /// Runs `work` with its compute passes timed on the GPU (see [`GpuDevice::time_passes`]).
+    pub fn time_passes<T, E: From<GpuError>>(
+        &self,
+        work: impl FnOnce() -> Result<T, E>,
+    ) -> Result<(T, Option<PassTimes>), E> {
+        self.gpu.time_passes(work)
     }
 
     /// Whether the adapter is a software rasteriser.
