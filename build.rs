@@ -18,6 +18,7 @@ fn main() {
     println!("cargo:rerun-if-env-changed=MUJOCO_DIR");
     println!("cargo:rerun-if-env-changed=LIBCLANG_PATH");
     println!("cargo:rerun-if-changed=build.rs");
+    emit_build_commit();
 
     // Where MuJoCo's headers and library live: Debian's, an include/ + lib/ install, or a pip
     // wheel's folder (site-packages/mujoco: include/ and libmujoco.so.X.Y.Z side by side).
@@ -172,4 +173,30 @@ fn fail(message: &str) -> ! {
     eprintln!("error: {message}");
     println!("cargo:warning={message}");
     std::process::exit(1);
+}
+
+/// The commit checked out when the binary is built, as `SPLATLOOP_COMMIT` for episode.json
+/// ("unknown" outside a git checkout). Rebuilt when HEAD or its branch moves; uncommitted
+/// edits are not marked (watching every source would rerun bindgen on each edit).
+fn emit_build_commit() {
+    let git = |args: &[&str]| {
+        std::process::Command::new("git")
+            .args(args)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
+    };
+    let commit = git(&["rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
+    println!("cargo:rustc-env=SPLATLOOP_COMMIT={commit}");
+    let branch = git(&["symbolic-ref", "-q", "HEAD"]);
+    for name in ["HEAD", "packed-refs"]
+        .into_iter()
+        .map(str::to_owned)
+        .chain(branch)
+    {
+        if let Some(path) = git(&["rev-parse", "--git-path", &name]) {
+            println!("cargo:rerun-if-changed={path}");
+        }
+    }
 }

@@ -332,7 +332,7 @@ fn a_60_s_rtguide_episode_in_a_generated_world_of_each_kind_has_no_collisions() 
 
 /// What decides an episode's numbers is in its episode.json: the renderer (EGL device, GL
 /// vendor, renderer and version), the build's CPU features, the CPU, the engine's threads,
-/// the splat engine, MuJoCo's version.
+/// the splat engine, MuJoCo's version, the commit the binary was built from.
 #[test]
 fn episode_json_records_what_decides_its_numbers() {
     let dir = tempfile::tempdir().expect("tempdir");
@@ -376,4 +376,16 @@ fn episode_json_records_what_decides_its_numbers() {
         .starts_with("cpu ("));
     assert!(!versions["cpu"].as_str().expect("cpu").is_empty());
     assert!(!versions["mujoco"].as_str().expect("mujoco").is_empty());
+    // The build's commit: this checkout's HEAD (cargo rebuilds when HEAD moves).
+    let commit = versions["commit"].as_str().expect("commit");
+    let head = std::process::Command::new("git")
+        .args(["rev-parse", "HEAD"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned());
+    match head {
+        Some(head) => assert_eq!(commit, head),
+        None => assert_eq!(commit, "unknown"),
+    }
 }

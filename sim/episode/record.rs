@@ -79,6 +79,9 @@ struct EpisodeFile<'a> {
 pub struct Versions {
     /// This crate.
     pub splatloop: &'static str,
+    /// The git commit the binary was built from ("unknown" outside a checkout): sweeps that
+    /// resume across sessions say which build made each episode.
+    pub commit: &'static str,
     /// libmujoco.
     pub mujoco: String,
     /// The EGL device and the GL vendor, renderer and version: the camera's images come from
@@ -129,6 +132,7 @@ impl Versions {
     pub fn current(gl: &EglContext) -> Self {
         Versions {
             splatloop: env!("CARGO_PKG_VERSION"),
+            commit: env!("SPLATLOOP_COMMIT"),
             mujoco: crate::mujoco::version(),
             renderer: gl.description().to_owned(),
             target_features: target_features(),
