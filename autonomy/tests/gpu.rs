@@ -5,13 +5,21 @@
 mod support;
 
 use autonomy::gaussians::Gaussians;
-use autonomy::splat::gpu::{AdapterPolicy, GpuError, GpuRasteriser};
+use autonomy::splat::gpu::{AdapterPolicy, GpuError, GpuOptions, GpuRasteriser};
 use autonomy::splat::{cpu, EngineChoice, Rasteriser, RenderError};
 use support::{assert_close, assert_gradients_close, camera, linear_loss_gradients, scene};
 
 /// The engine on any adapter; `None` (with the reason printed) only when there is none.
 fn engine(binding_cap: Option<u64>) -> Option<GpuRasteriser> {
-    match GpuRasteriser::new(AdapterPolicy::AllowSoftware, binding_cap) {
+    engine_with(GpuOptions {
+        binding_cap,
+        ..GpuOptions::default()
+    })
+}
+
+/// The engine on any adapter, opened with `options`.
+fn engine_with(options: GpuOptions) -> Option<GpuRasteriser> {
+    match GpuRasteriser::with_options(AdapterPolicy::AllowSoftware, options) {
         Ok(gpu) => {
             eprintln!("wgpu adapter: {}", gpu.describe());
             Some(gpu)
@@ -61,6 +69,32 @@ fn gpu_engine_matches_the_cpu_engine() {
     let mut dense = scene(43, 700, &cam);
     dense.logit_opacities.iter_mut().for_each(|l| *l += 2.0);
     assert_matches_cpu(&gpu, &dense, 64, 48, 9);
+}
+
+#[test]
+fn both_backward_reductions_match_the_cpu_engine() {
+    // The backward pass sums by subgroup where the adapter has subgroups (lavapipe has) and in
+    // workgroup memory otherwise: both variants against the CPU engine, on lists longer than a
+    // batch (the subgroup variant's batch is shorter where subgroups are narrow).
+    for subgroups in [true, false] {
+        let Some(gpu) = engine_with(GpuOptions {
+            subgroups,
+            ..GpuOptions::default()
+        }) else {
+            return;
+        };
+        if !subgroups {
+            assert!(!gpu.has_subgroups(), "subgroups off when asked");
+        }
+        eprintln!("subgroup sums: {}", gpu.has_subgroups());
+        let cam = camera(64, 48);
+        let mut dense = scene(45, 700, &cam);
+        dense.logit_opacities.iter_mut().for_each(|l| *l += 2.0);
+        assert_matches_cpu(&gpu, &dense, 64, 48, 11);
+        assert_fisher_matches_cpu(&gpu, &dense, 64, 48);
+        let cam = camera(37, 29);
+        assert_matches_cpu(&gpu, &scene(22, 60, &cam), 37, 29, 12);
+    }
 }
 
 /// The Fisher mode of both engines on the same scene: each Gaussian's 8 values within 1e-3 of

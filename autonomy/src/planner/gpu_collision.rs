@@ -4,7 +4,7 @@
 
 use super::collision::{CollisionModel, Obstacles};
 use crate::splat::gpu::kernels::{linear_groups, Access, Module};
-use crate::splat::gpu::{AdapterPolicy, GpuDevice, GpuError};
+use crate::splat::gpu::{AdapterPolicy, GpuDevice, GpuError, GpuOptions};
 
 /// The GPU collision engine.
 pub struct GpuCollision {
@@ -22,7 +22,7 @@ impl std::fmt::Debug for GpuCollision {
 impl GpuCollision {
     /// Opens an adapter under `policy`.
     pub fn new(policy: AdapterPolicy) -> Result<Self, GpuError> {
-        let gpu = GpuDevice::open(policy, None)?;
+        let gpu = GpuDevice::open(policy, GpuOptions::default())?;
         let module = Module::new(
             &gpu,
             "collision",

@@ -1,6 +1,6 @@
 //! Choosing between the CPU and the wgpu engine, and calling whichever was chosen.
 
-use super::gpu::{AdapterPolicy, GpuRasteriser, GpuRender};
+use super::gpu::{AdapterPolicy, GpuOptions, GpuRasteriser, GpuRender};
 use super::{cpu, ImageGradients, Images, RenderError};
 use crate::camera::PinholeCamera;
 use crate::gaussians::{Gaussians, Gradients};
@@ -74,12 +74,18 @@ impl Rasteriser {
     /// Picks the engine for `choice`. Never fails: without a usable adapter it logs why and
     /// returns the CPU engine (a warning when the GPU was asked for explicitly).
     pub fn select(choice: EngineChoice) -> Self {
+        Self::select_with(choice, GpuOptions::default())
+    }
+
+    /// [`Rasteriser::select`] with the GPU engine opened under `options` (`bench render`
+    /// compares its kernels so).
+    pub fn select_with(choice: EngineChoice, options: GpuOptions) -> Self {
         let policy = match choice {
             EngineChoice::Cpu => return Rasteriser::Cpu,
             EngineChoice::Auto => AdapterPolicy::HardwareOnly,
             EngineChoice::Gpu => AdapterPolicy::AllowSoftware,
         };
-        match GpuRasteriser::new(policy, None) {
+        match GpuRasteriser::with_options(policy, options) {
             Ok(gpu) => {
                 tracing::info!("splat engine: gpu on {}", gpu.describe());
                 Rasteriser::Gpu(Box::new(gpu))

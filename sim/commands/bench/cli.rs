@@ -2,6 +2,7 @@
 
 use crate::commands::world::tempfile_dir;
 use anyhow::Result;
+use autonomy::splat::gpu::GpuOptions;
 use autonomy::splat::{EngineChoice, Rasteriser};
 use clap::ValueEnum;
 use std::path::PathBuf;
@@ -29,6 +30,10 @@ pub struct BenchArgs {
     /// skipped.
     #[arg(long, value_enum, value_delimiter = ',', default_value = "cpu,auto")]
     engine: Vec<EngineChoice>,
+    /// Whether the GPU engine's backward pass sums by subgroup where the adapter has
+    /// subgroups (render, map); `true,false` times both kernels in one run.
+    #[arg(long, value_delimiter = ',', default_value = "true", action = clap::ArgAction::Set)]
+    gpu_subgroups: Vec<bool>,
 }
 
 /// What `splatloop bench` measures.
@@ -64,21 +69,23 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         iterations,
         gaussians,
         engine,
+        gpu_subgroups,
     } = args;
+    let engines = || distinct_engines(&engine, &gpu_subgroups);
     match what {
-        BenchTarget::Render => render(&engine, &gaussians, iterations),
+        BenchTarget::Render => render(engines(), &gaussians, iterations),
         BenchTarget::Loss => loss(iterations),
         BenchTarget::Plan => plan(&engine, &gaussians),
         BenchTarget::Planners => planners(&gaussians),
         BenchTarget::World => worlds(world),
-        BenchTarget::Map => map(&engine, frames),
+        BenchTarget::Map => map(engines(), frames),
         BenchTarget::Sensor => sensor(&world, frames),
     }
 }
 
 /// One mapping iteration per engine, resolution and Gaussian count.
-fn render(engine: &[EngineChoice], gaussians: &[usize], iterations: usize) -> Result<()> {
-    for rasteriser in distinct_engines(engine) {
+fn render(engines: Vec<Rasteriser>, gaussians: &[usize], iterations: usize) -> Result<()> {
+    for rasteriser in engines {
         let name = rasteriser.describe();
         let rows = crate::bench::bench_render(
             &rasteriser,
@@ -206,8 +213,8 @@ fn worlds(world: PathBuf) -> Result<()> {
 }
 
 /// Mapping steps as an apartment's map grows, per engine.
-fn map(engine: &[EngineChoice], frames: usize) -> Result<()> {
-    for rasteriser in distinct_engines(engine) {
+fn map(engines: Vec<Rasteriser>, frames: usize) -> Result<()> {
+    for rasteriser in engines {
         let name = rasteriser.describe();
         let (rows, quality) = crate::bench::bench_map(rasteriser, 320, 240, 10, frames)?;
         print_map_bench(&name, &rows, &quality);
@@ -245,15 +252,23 @@ fn sensor(world: &std::path::Path, frames: usize) -> Result<()> {
 
 /// The engines `choices` resolve to, each once: `auto` on a machine without a hardware GPU is
 /// the CPU engine, timed once even when `cpu` is also listed.
-fn distinct_engines(choices: &[EngineChoice]) -> Vec<Rasteriser> {
+/// The engines to time: each choice with each subgroup setting, those that resolve to one
+/// already listed (the same adapter and kernels) left out.
+fn distinct_engines(choices: &[EngineChoice], subgroups: &[bool]) -> Vec<Rasteriser> {
     let mut engines: Vec<Rasteriser> = Vec::new();
     for &choice in choices {
-        let rasteriser = Rasteriser::select(choice);
-        let name = rasteriser.describe();
-        if engines.iter().any(|e| e.describe() == name) {
-            println!("({choice:?} resolved to {name}, already timed)");
-        } else {
-            engines.push(rasteriser);
+        for &subgroups in subgroups {
+            let options = GpuOptions {
+                subgroups,
+                ..GpuOptions::default()
+            };
+            let rasteriser = Rasteriser::select_with(choice, options);
+            let name = rasteriser.describe();
+            if engines.iter().any(|e| e.describe() == name) {
+                println!("({choice:?} resolved to {name}, already timed)");
+            } else {
+                engines.push(rasteriser);
+            }
         }
     }
     engines

@@ -1,9 +1,11 @@
 // Back-to-front gradients: one 16x16 workgroup per tile, one thread per pixel. For each splat
 // of the tile's list (from the last contributor of any pixel backwards) every pixel computes
-// its share of the splat's 8 screen-space gradients; the workgroup sums them in shared memory
-// (two levels, one barrier) and one thread per gradient adds the sum to the splat's totals
-// with a compare-and-swap float add (WGSL has no float atomics), so each (tile, splat) pair
-// costs one atomic per gradient, not one per pixel.
+// its share of the splat's 8 screen-space gradients (`pixel_share`); the workgroup sums the
+// shares and one thread per gradient adds the sum to the splat's totals with a
+// compare-and-swap float add (WGSL has no float atomics), so each (tile, splat) pair costs one
+// atomic per gradient, not one per pixel. How the workgroup sums is the variant's:
+// backward_shared.wgsl (workgroup memory, any adapter) or backward_subgroup.wgsl (subgroup
+// sums, where the adapter has them).
 
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> splats: array<vec4<f32>>;
@@ -21,14 +23,12 @@
 
 const BATCH: u32 = 64u;
 
+// The batch of splats being walked, loaded by the workgroup together.
 var<workgroup> shape: array<vec4<f32>, BATCH>;
 var<workgroup> colour: array<vec4<f32>, BATCH>;
 var<workgroup> radius: array<f32, BATCH>;
 var<workgroup> index: array<u32, BATCH>;
 var<workgroup> point: array<vec3<f32>, BATCH>;
-var<workgroup> partial: array<array<f32, 8>, 256>;
-// Per thread: one gradient summed over 8 of the tile's pixels (the reduction's first level).
-var<workgroup> sums: array<f32, 256>;
 var<workgroup> flag: atomic<u32>;
 var<workgroup> snapshot: u32;
 
@@ -61,47 +61,46 @@ fn squared_parameters(g: array<f32, 8>, p: vec3<f32>, radius: f32, opacity: f32)
     );
 }
 
-@compute @workgroup_size(16, 16)
-fn backward(
-    @builtin(local_invocation_id) local: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-    @builtin(workgroup_id) wid: vec3<u32>,
-) {
-    walk(local, lid, wid, false);
+// A pixel's state while it walks its splats back to front.
+struct PixelWalk {
+    x: u32,
+    y: u32,
+    inside: bool,
+    // Its contributors (the forward pass's count).
+    count: u32,
+    // Transmittance in front of the current splat.
+    transmittance: f32,
+    // d loss / d (r, g, b, depth, silhouette) of the pixel.
+    grad: array<f32, 5>,
+    // Colour, depth and silhouette composited behind the current splat.
+    behind: array<f32, 5>,
 }
 
-// The Fisher mode: each pixel's gradient is carried to the parameters and squared before the
-// workgroup sums it (AG-SLAM eqs 7-9), so it is not the square of the summed gradient.
-@compute @workgroup_size(16, 16)
-fn fisher(
-    @builtin(local_invocation_id) local: vec3<u32>,
-    @builtin(local_invocation_index) lid: u32,
-    @builtin(workgroup_id) wid: vec3<u32>,
-) {
-    walk(local, lid, wid, true);
-}
-
-fn walk(local: vec3<u32>, lid: u32, wid: vec3<u32>, squared: bool) {
+// The pixel's walk set up from the forward pass's record: (tile, walk).
+fn start_walk(local: vec3<u32>, wid: vec3<u32>) -> PixelWalk {
     let pixel = tile_pixel(local, wid);
-    let tile = pixel.x;
-    let x = pixel.y;
-    let y = pixel.z;
-    let inside = pixel.w == 1u;
-    let start = ranges[2u * tile];
-    let end = max(ranges[2u * tile + 1u], start);
-    var transmittance = 1.0;
-    var count = 0u;
-    var grad = array<f32, 5>(0.0, 0.0, 0.0, 0.0, 0.0);
-    if (inside) {
-        let p = (y - params.band_start * TILE) * params.width + x;
-        transmittance = pixels[7u * p + 5u];
-        count = bitcast<u32>(pixels[7u * p + 6u]);
+    var walk: PixelWalk;
+    walk.x = pixel.y;
+    walk.y = pixel.z;
+    walk.inside = pixel.w == 1u;
+    walk.count = 0u;
+    walk.transmittance = 1.0;
+    walk.grad = array<f32, 5>(0.0, 0.0, 0.0, 0.0, 0.0);
+    walk.behind = array<f32, 5>(0.0, 0.0, 0.0, 0.0, 0.0);
+    if (walk.inside) {
+        let p = (walk.y - params.band_start * TILE) * params.width + walk.x;
+        walk.transmittance = pixels[7u * p + 5u];
+        walk.count = bitcast<u32>(pixels[7u * p + 6u]);
         for (var k = 0u; k < 5u; k++) {
-            grad[k] = pixel_gradients[5u * p + k];
+            walk.grad[k] = pixel_gradients[5u * p + k];
         }
     }
-    // Colour, depth and silhouette composited behind the current splat.
-    var behind = array<f32, 5>(0.0, 0.0, 0.0, 0.0, 0.0);
+    return walk;
+}
+
+// The number of list entries the tile's walk covers: the most contributors of any of its
+// pixels (every thread must take part).
+fn tile_walk_length(lid: u32, count: u32, list_length: u32) -> u32 {
     if (lid == 0u) {
         atomicStore(&flag, 0u);
     }
@@ -112,93 +111,61 @@ fn walk(local: vec3<u32>, lid: u32, wid: vec3<u32>, squared: bool) {
         snapshot = atomicLoad(&flag);
         atomicStore(&flag, 0u);
     }
-    let last = min(workgroupUniformLoad(&snapshot), end - start);
-    var top = last;
-    while (top > 0u) {
-        let first = select(0u, top - BATCH, top > BATCH);
-        let batch = top - first;
-        if (lid < batch) {
-            let s = pair_splats[start + first + lid];
-            shape[lid] = splats[3u * s];
-            let s1 = splats[3u * s + 1u];
-            colour[lid] = vec4<f32>(splats[3u * s + 2u].xyz, s1.x);
-            radius[lid] = s1.z;
-            index[lid] = s;
-            point[lid] = (params.camera_from_world * vec4<f32>(gaussians[2u * s].xyz, 1.0)).xyz;
-        }
-        workgroupBarrier();
-        for (var jj = 0u; jj < batch; jj++) {
-            let j = batch - 1u - jj;
-            let position = first + j;
-            let sh = shape[j];
-            let dx = f32(x) - sh.x;
-            let dy = f32(y) - sh.y;
-            let raw = sh.w * exp((dx * dx + dy * dy) * sh.z * -0.5);
-            let a = min(raw, params.max_alpha);
-            let valid = inside && a >= params.min_alpha && position < count;
-            var g = array<f32, 8>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-            if (valid) {
-                atomicOr(&flag, 1u);
-                // Transmittance in front of this splat, undone from the one behind it.
-                let t = transmittance / (1.0 - a);
-                transmittance = t;
-                let weight = a * t;
-                let c = colour[j];
-                let values = array<f32, 5>(c.x, c.y, c.z, c.w, 1.0);
-                var d_alpha = 0.0;
-                for (var k = 0u; k < 5u; k++) {
-                    d_alpha += grad[k] * (values[k] - behind[k]);
-                    behind[k] = a * values[k] + (1.0 - a) * behind[k];
-                }
-                d_alpha *= t;
-                g[4] = grad[0] * weight;
-                g[5] = grad[1] * weight;
-                g[6] = grad[2] * weight;
-                g[7] = grad[3] * weight;
-                // The 0.99 clamp cuts the gradient to the Gaussian's shape and opacity.
-                if (raw <= params.max_alpha) {
-                    let d_q = d_alpha * a * -0.5;
-                    g[0] = d_q * -2.0 * dx * sh.z;
-                    g[1] = d_q * -2.0 * dy * sh.z;
-                    g[2] = d_q * (-2.0 / radius[j]) * (dx * dx + dy * dy) * sh.z;
-                    g[3] = d_alpha * a * (1.0 / sh.w);
-                }
-            }
-            if (squared) {
-                partial[lid] = squared_parameters(g, point[j], radius[j], sh.w);
-            } else {
-                partial[lid] = g;
-            }
-            workgroupBarrier();
-            if (lid == 0u) {
-                snapshot = atomicLoad(&flag);
-                atomicStore(&flag, 0u);
-            }
-            if (workgroupUniformLoad(&snapshot) != 0u) {
-                // Two levels, one barrier between them (a tree of halvings needs eight): each
-                // thread adds one gradient over 8 pixels 32 apart (neighbouring threads read
-                // neighbouring words, so no two threads of 32 share a memory bank), then 8
-                // threads add their gradient's 32 partial sums.
-                let k = lid % 8u;
-                let chunk = lid / 8u;
-                var sum = 0.0;
-                for (var i = 0u; i < 8u; i++) {
-                    sum += partial[chunk + 32u * i][k];
-                }
-                sums[lid] = sum;
-                workgroupBarrier();
-                if (lid < 8u) {
-                    var total = 0.0;
-                    for (var c = 0u; c < 32u; c++) {
-                        total += sums[8u * c + lid];
-                    }
-                    atomic_add_f32(9u * index[j] + lid, total);
-                } else if (lid == 8u) {
-                    atomicOr(&screen[9u * index[j] + 8u], 1u);
-                }
-            }
-            workgroupBarrier();
-        }
-        top = first;
+    return min(workgroupUniformLoad(&snapshot), list_length);
+}
+
+// Loads entry `at` of the tile's list into batch slot `lid`.
+fn load_splat(lid: u32, at: u32) {
+    let s = pair_splats[at];
+    shape[lid] = splats[3u * s];
+    let s1 = splats[3u * s + 1u];
+    colour[lid] = vec4<f32>(splats[3u * s + 2u].xyz, s1.x);
+    radius[lid] = s1.z;
+    index[lid] = s;
+    point[lid] = (params.camera_from_world * vec4<f32>(gaussians[2u * s].xyz, 1.0)).xyz;
+}
+
+// The pixel's share of batch splat `j` (list position `position`): its 8 screen-space
+// gradients (in the Fisher mode, its squared parameter gradients), zero where the splat does
+// not touch it (`touched` says which); advances the walk past the splat.
+fn pixel_share(walk: ptr<function, PixelWalk>, j: u32, position: u32, squared: bool, touched: ptr<function, bool>) -> array<f32, 8> {
+    let sh = shape[j];
+    let dx = f32((*walk).x) - sh.x;
+    let dy = f32((*walk).y) - sh.y;
+    let raw = sh.w * exp((dx * dx + dy * dy) * sh.z * -0.5);
+    let a = min(raw, params.max_alpha);
+    let valid = (*walk).inside && a >= params.min_alpha && position < (*walk).count;
+    *touched = valid;
+    var g = array<f32, 8>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    if (!valid) {
+        return g;
     }
+    // Transmittance in front of this splat, undone from the one behind it.
+    let t = (*walk).transmittance / (1.0 - a);
+    (*walk).transmittance = t;
+    let weight = a * t;
+    let c = colour[j];
+    let values = array<f32, 5>(c.x, c.y, c.z, c.w, 1.0);
+    var d_alpha = 0.0;
+    for (var k = 0u; k < 5u; k++) {
+        d_alpha += (*walk).grad[k] * (values[k] - (*walk).behind[k]);
+        (*walk).behind[k] = a * values[k] + (1.0 - a) * (*walk).behind[k];
+    }
+    d_alpha *= t;
+    g[4] = (*walk).grad[0] * weight;
+    g[5] = (*walk).grad[1] * weight;
+    g[6] = (*walk).grad[2] * weight;
+    g[7] = (*walk).grad[3] * weight;
+    // The 0.99 clamp cuts the gradient to the Gaussian's shape and opacity.
+    if (raw <= params.max_alpha) {
+        let d_q = d_alpha * a * -0.5;
+        g[0] = d_q * -2.0 * dx * sh.z;
+        g[1] = d_q * -2.0 * dy * sh.z;
+        g[2] = d_q * (-2.0 / radius[j]) * (dx * dx + dy * dy) * sh.z;
+        g[3] = d_alpha * a * (1.0 / sh.w);
+    }
+    if (squared) {
+        return squared_parameters(g, point[j], radius[j], sh.w);
+    }
+    return g;
 }

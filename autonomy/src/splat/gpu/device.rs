@@ -96,6 +96,28 @@ pub struct GpuDevice {
     traffic: TrafficCounters,
     /// Per-pass GPU timestamps, where the adapter has them.
     timer: Option<Arc<PassTimer>>,
+    /// Whether subgroup operations are on (the adapter has them and the options allow them).
+    subgroups: bool,
+}
+
+/// How a device is opened.
+#[derive(Debug, Clone, Copy)]
+pub struct GpuOptions {
+    /// Lowers the storage binding limit to this many bytes (tests use a small cap to exercise
+    /// splitting on small scenes).
+    pub binding_cap: Option<u64>,
+    /// Use subgroup operations where the adapter has them (the backward pass sums by
+    /// subgroup); off forces the workgroup-memory kernels, e.g. to compare the two.
+    pub subgroups: bool,
+}
+
+impl Default for GpuOptions {
+    fn default() -> Self {
+        GpuOptions {
+            binding_cap: None,
+            subgroups: true,
+        }
+    }
 }
 
 impl std::fmt::Debug for GpuDevice {
@@ -176,18 +198,23 @@ fn pick_adapter(
 }
 
 impl GpuDevice {
-    /// Opens a device with the adapter's own limits, optionally capping the storage binding
-    /// size (tests use a small cap to exercise splitting on small scenes).
-    pub fn open(policy: AdapterPolicy, binding_cap: Option<u64>) -> Result<Self, GpuError> {
+    /// Opens a device with the adapter's own limits, under `options`.
+    pub fn open(policy: AdapterPolicy, options: GpuOptions) -> Result<Self, GpuError> {
         let instance =
             wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let adapter = pick_adapter(&instance, policy)?;
         let info = adapter.get_info();
         let limits = adapter.limits();
+        let wanted = if options.subgroups {
+            wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::SUBGROUP
+        } else {
+            wgpu::Features::TIMESTAMP_QUERY
+        };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("splatloop splat engine"),
             // Timestamps only where the adapter has them: `bench render`'s per-pass table.
-            required_features: adapter.features() & wgpu::Features::TIMESTAMP_QUERY,
+            // Subgroups where it has them and they are wanted: the backward pass's sums.
+            required_features: adapter.features() & wanted,
             required_limits: limits.clone(),
             ..Default::default()
         }))
@@ -203,9 +230,11 @@ impl GpuDevice {
         let adapter_max = limits
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size);
-        let max_binding = binding_cap
+        let max_binding = options
+            .binding_cap
             .map_or(adapter_max, |cap| cap.min(adapter_max))
             .max(256);
+        let subgroups = device.features().contains(wgpu::Features::SUBGROUP);
         let timer = device
             .features()
             .contains(wgpu::Features::TIMESTAMP_QUERY)
@@ -217,6 +246,7 @@ impl GpuDevice {
             max_binding,
             errors,
             traffic: TrafficCounters::default(),
+            subgroups,
             timer,
         })
     }
@@ -224,9 +254,18 @@ impl GpuDevice {
     /// One line naming the adapter, e.g. for benchmark tables.
     pub fn describe(&self) -> String {
         format!(
-            "{} ({:?}, {:?}, driver {})",
-            self.info.name, self.info.device_type, self.info.backend, self.info.driver_info
+            "{} ({:?}, {:?}, driver {}{})",
+            self.info.name,
+            self.info.device_type,
+            self.info.backend,
+            self.info.driver_info,
+            if self.subgroups { "; subgroups" } else { "" }
         )
+    }
+
+    /// Whether the kernels may use subgroup operations.
+    pub fn has_subgroups(&self) -> bool {
+        self.subgroups
     }
 
     /// Whether this is a software rasteriser (lavapipe, SwiftShader).

@@ -224,7 +224,19 @@ impl Kernels {
             backward: Module::new(
                 gpu,
                 "backward",
-                concat!(include_str!("tile.wgsl"), include_str!("backward.wgsl")),
+                if gpu.has_subgroups() {
+                    concat!(
+                        include_str!("tile.wgsl"),
+                        include_str!("backward.wgsl"),
+                        include_str!("backward_subgroup.wgsl")
+                    )
+                } else {
+                    concat!(
+                        include_str!("tile.wgsl"),
+                        include_str!("backward.wgsl"),
+                        include_str!("backward_shared.wgsl")
+                    )
+                },
                 &[Uniform, Read, Read, Read, Read, Read, Write, Read],
                 &["backward", "fisher"],
             ),

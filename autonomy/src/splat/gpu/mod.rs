@@ -12,7 +12,7 @@ pub(crate) mod kernels;
 mod resident;
 mod timing;
 
-pub use device::{AdapterPolicy, GpuDevice, GpuError, Traffic};
+pub use device::{AdapterPolicy, GpuDevice, GpuError, GpuOptions, Traffic};
 pub use resident::ResidentMap;
 pub use timing::PassTimes;
 
@@ -130,7 +130,19 @@ impl GpuRasteriser {
     /// Opens an adapter under `policy`; `binding_cap` lowers the storage binding limit
     /// (tests use it to force splitting).
     pub fn new(policy: AdapterPolicy, binding_cap: Option<u64>) -> Result<Self, GpuError> {
-        let gpu = GpuDevice::open(policy, binding_cap)?;
+        Self::with_options(
+            policy,
+            GpuOptions {
+                binding_cap,
+                ..GpuOptions::default()
+            },
+        )
+    }
+
+    /// Opens an adapter under `policy` with `options` (e.g. subgroups off, to compare the
+    /// kernels).
+    pub fn with_options(policy: AdapterPolicy, options: GpuOptions) -> Result<Self, GpuError> {
+        let gpu = GpuDevice::open(policy, options)?;
         let kernels = Kernels::new(&gpu);
         gpu.check()?;
         Ok(GpuRasteriser { gpu, kernels })
@@ -157,6 +169,11 @@ impl GpuRasteriser {
     /// Whether the adapter is a software rasteriser.
     pub fn is_software(&self) -> bool {
         self.gpu.is_software()
+    }
+
+    /// Whether the backward pass sums by subgroup.
+    pub fn has_subgroups(&self) -> bool {
+        self.gpu.has_subgroups()
     }
 
     fn params(&self, camera: &PinholeCamera, count: usize) -> GpuParams {
