@@ -326,3 +326,41 @@ impl ScanPlan {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::splat::gpu::{AdapterPolicy, GpuError, GpuOptions};
+
+    /// The exclusive prefix sum against the host's, at lengths round the block size and over
+    /// several levels, with the total (the pair count and the sort's histograms rest on it).
+    #[test]
+    fn the_block_scan_matches_the_host_prefix_sum() {
+        let gpu = match GpuDevice::open(AdapterPolicy::AllowSoftware, GpuOptions::default()) {
+            Ok(gpu) => gpu,
+            Err(GpuError::NoAdapter(reason)) => {
+                eprintln!("SKIPPED: no wgpu adapter at all: {reason}");
+                return;
+            }
+            Err(e) => panic!("an adapter exists but the device failed: {e}"),
+        };
+        let kernels = Kernels::new(&gpu);
+        for n in [1u32, 255, 256, 257, 1000, 65_537, 300_000] {
+            let values: Vec<u32> = (0..n)
+                .map(|i| (i.wrapping_mul(2_654_435_761) >> 27) & 15)
+                .collect();
+            let data = gpu.storage_with("scan test", &values);
+            let mut encoder = gpu.encoder();
+            let total = kernels.scan(&gpu, &mut encoder, &data, n);
+            gpu.submit(encoder).expect("scan");
+            let got: Vec<u32> = gpu.read(gpu.encoder(), &data, n as usize).expect("read");
+            let total: Vec<u32> = gpu.read(gpu.encoder(), &total, 1).expect("read total");
+            let mut sum = 0u32;
+            for (i, (g, v)) in got.iter().zip(&values).enumerate() {
+                assert_eq!(*g, sum, "n = {n}: entry {i}");
+                sum += v;
+            }
+            assert_eq!(total[0], sum, "n = {n}: the total");
+        }
+    }
+}
