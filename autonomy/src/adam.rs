@@ -193,3 +193,56 @@ impl Adam {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Adam as written in the paper, bias corrections by `powi` at every step: the reference.
+    fn reference_step(x: &mut f32, m: &mut f32, v: &mut f32, grad: f32, lr: f32, t: i32) {
+        *m = BETA1 * *m + (1.0 - BETA1) * grad;
+        *v = BETA2 * *v + (1.0 - BETA2) * grad * grad;
+        let (c1, c2) = (1.0 - BETA1.powi(t), 1.0 - BETA2.powi(t));
+        *x -= lr * (*m / c1) / ((*v / c2).sqrt() + EPSILON);
+    }
+
+    #[test]
+    fn steps_match_the_reference_bit_for_bit_with_gaussians_added_and_skipped() {
+        let rates = LearningRates::default();
+        let mut adam = Adam::new(rates);
+        let mut gaussians = Gaussians::default();
+        // Per Gaussian: (opacity, m, v, steps) of the reference.
+        let mut reference: Vec<(f32, f32, f32, i32)> = Vec::new();
+        for iteration in 0..300usize {
+            // One Gaussian joins every 7 iterations; every third one sits out odd iterations.
+            if iteration % 7 == 0 {
+                gaussians.means.push([0.0; 3]);
+                gaussians.log_radii.push(0.0);
+                gaussians.logit_opacities.push(0.5);
+                gaussians.colours.push([0.0; 3]);
+                reference.push((0.5, 0.0, 0.0, 0));
+            }
+            let n = gaussians.len();
+            let mut grads = Gradients::zeros(n);
+            for i in 0..n {
+                if i % 3 == 0 && iteration % 2 == 1 {
+                    continue;
+                }
+                let g = ((iteration * 31 + i * 17) % 23) as f32 / 23.0 - 0.4;
+                grads.logit_opacities[i] = g;
+                grads.touched.push(i as u32);
+                let r = &mut reference[i];
+                r.3 += 1;
+                reference_step(&mut r.0, &mut r.1, &mut r.2, g, rates.logit_opacities, r.3);
+            }
+            adam.step(&mut gaussians, &grads);
+            for (i, r) in reference.iter().enumerate() {
+                assert_eq!(
+                    gaussians.logit_opacities[i].to_bits(),
+                    r.0.to_bits(),
+                    "iteration {iteration}, gaussian {i}"
+                );
+            }
+        }
+    }
+}
