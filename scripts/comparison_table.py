@@ -3,9 +3,11 @@
 
 Reads every finished episode's metrics.json (WORLD/PLANNER/SEED/metrics.json) of the old
 protocol's sweep (each planner ends when it is done) and the new one's (every planner runs to
-the same simulated time), and prints two Markdown tables: each episode under both, and per
-world and spawn the differences RT-GuIDE minus the survey and minus FBE (PSNR, coverage),
-old beside new, with their means over the pairs both sweeps have.
+the same simulated time), and prints three Markdown tables: each episode under both; per world
+and spawn the differences RT-GuIDE minus the survey and minus FBE (PSNR, coverage), old beside
+new, with their means over the pairs both sweeps have; and, from the new sweep's
+`psnr_over_time` (PSNR on a subsample of the hidden views), each planner's PSNR at a third,
+two thirds and the whole of the common budget, the comparison at equal times.
 
     python3 scripts/comparison_table.py benchmarks/comparison-spawns benchmarks/comparison-fair
 """
@@ -88,6 +90,36 @@ def difference_table(old, new):
           f"| {mean(columns['of'])} | {mean(columns['nf'])} |")
 
 
+def psnr_at(series, t):
+    """The last PSNR of `series` ([time, dB] pairs) taken at or before `t`."""
+    taken = [v for (time, v) in series if time <= t + 1e-6]
+    return taken[-1] if taken else None
+
+
+def equal_times_table(new):
+    print("| world | spawn | " + " | ".join(
+        f"{p}: 1/3, 2/3, end dB" for p in PLANNERS) + " |")
+    print("|---|---:|" + "---|" * len(PLANNERS))
+    means = {p: [[], [], []] for p in PLANNERS}
+    for world, seed in sorted({(w, s) for (w, p, s) in new}):
+        runs = [new.get((world, p, seed)) for p in PLANNERS]
+        if any(r is None or not r.get("psnr_over_time") for r in runs):
+            continue
+        cells = []
+        for p, m in zip(PLANNERS, runs):
+            budget = m["simulated_seconds"]
+            values = [psnr_at(m["psnr_over_time"], f * budget) for f in (1 / 3, 2 / 3, 1.0)]
+            for k, v in enumerate(values):
+                means[p][k].append(v)
+            cells.append(", ".join(f"{v:.2f}" for v in values))
+        print(f"| {world} | {seed} | " + " | ".join(cells) + " |")
+    n = len(means[PLANNERS[0]][0])
+    if n:
+        print("| mean | | " + " | ".join(
+            ", ".join(f"{statistics.mean(means[p][k]):.2f}" for k in range(3)) for p in PLANNERS)
+            + f" (n = {n}) |")
+
+
 def main():
     if len(sys.argv) != 3:
         sys.exit("usage: comparison_table.py OLD_SWEEP_FOLDER NEW_SWEEP_FOLDER")
@@ -97,6 +129,8 @@ def main():
     episode_table(old, new)
     print()
     difference_table(old, new)
+    print()
+    equal_times_table(new)
 
 
 if __name__ == "__main__":
