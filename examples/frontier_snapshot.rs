@@ -1,8 +1,9 @@
 //! Replays an episode folder's depth frames into FBE's evidence grid (its default settings)
 //! up to a time and draws what the planner sees there as a PNG: unknown grey, free white,
 //! occupied black, the robot's reachable free component green, frontier cells red, clusters
-//! (more than ten cells) dark red, the world's obstacles outlined blue, the path yellow. For
-//! looking into a frontier planner's choices and endings.
+//! (more than ten cells, joined across cut-off free cells as FBE's default joins them) dark
+//! red, the world's obstacles outlined blue, the path yellow. For looking into a frontier
+//! planner's choices and endings.
 //!
 //! ```sh
 //! cargo run --release --example frontier_snapshot -- EPISODE_FOLDER WORLD.xml SECONDS OUT.png [rays]
@@ -70,7 +71,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let robot = path.last().copied().ok_or("no frame before that time")?;
     let free = frontier::reachable_free(&classes, robot);
     let cells = frontier::frontier_cells(&classes, &free);
-    let clusters = frontier::clusters(&classes, &cells);
+    // FBE's default clusters: joined across the free cells the opening cut off.
+    let through = frontier::cut_free_border(&classes, &free);
+    let clusters = frontier::clusters_through(&classes, &cells, &through);
     let mut in_cluster = vec![false; classes.len()];
     for c in clusters.iter().flat_map(|c| &c.cells) {
         in_cluster[*c] = true;

@@ -595,7 +595,8 @@ impl AgslamPlanner {
             start,
             fc.path_clearance,
             fc.footprint_radius,
-        );
+        )
+        .join_clusters(fc.join_clusters);
         let train = self.train_for(map);
         let (goals, centre) = self.candidate_goals(map, start, &view, &train);
         if goals.is_empty() {

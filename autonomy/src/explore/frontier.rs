@@ -113,6 +113,23 @@ pub fn frontier_cells(grid: &ClassGrid, free: &[bool]) -> Vec<bool> {
 /// 8-connected clusters of frontier cells with more than `MIN_CLUSTER_CELLS` cells, in order
 /// of their lowest cell.
 pub fn clusters(grid: &ClassGrid, frontier: &[bool]) -> Vec<Cluster> {
+    clusters_through(grid, frontier, &vec![false; grid.len()])
+}
+
+/// Free cells that border the robot's component `free` but are not in it: the opening cut them
+/// off (a door seen from afar gives lines of free cells with unseen cells between them, too
+/// thin to survive it), yet they are no obstacle, only free space not known to be reachable.
+pub fn cut_free_border(grid: &ClassGrid, free: &[bool]) -> Vec<bool> {
+    morph(grid, free, false)
+        .into_iter()
+        .enumerate()
+        .map(|(c, d)| d && !free[c] && grid.classes[c] == CellClass::Free)
+        .collect()
+}
+
+/// [`clusters`], where two frontier cells are also joined through cells of `through` (they
+/// join the cluster's connectivity, not its cells or its count).
+pub fn clusters_through(grid: &ClassGrid, frontier: &[bool], through: &[bool]) -> Vec<Cluster> {
     let mut seen = vec![false; grid.len()];
     let mut out = Vec::new();
     for start in 0..grid.len() {
@@ -124,9 +141,11 @@ pub fn clusters(grid: &ClassGrid, frontier: &[bool]) -> Vec<Cluster> {
         let mut queue = VecDeque::from([start]);
         while let Some(c) = queue.pop_front() {
             for n in grid.neighbours8(c) {
-                if frontier[n] && !seen[n] {
+                if (frontier[n] || through[n]) && !seen[n] {
                     seen[n] = true;
-                    cells.push(n);
+                    if frontier[n] {
+                        cells.push(n);
+                    }
                     queue.push_back(n);
                 }
             }
