@@ -590,13 +590,7 @@ impl AgslamPlanner {
         self.grid
             .mark_free_disc([start.x, start.y], fc.footprint_radius);
         self.grid.set_gaussians(&map.gaussians.means);
-        let view = FrontierView::new(
-            self.grid.classes(),
-            start,
-            fc.path_clearance,
-            fc.footprint_radius,
-        )
-        .join_clusters(fc.join_clusters);
+        let view = FrontierView::for_fbe(self.grid.classes(), start, &fc);
         let train = self.train_for(map);
         let (goals, centre) = self.candidate_goals(map, start, &view, &train);
         if goals.is_empty() {

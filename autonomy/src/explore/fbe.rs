@@ -104,12 +104,39 @@ pub struct FrontierView {
 impl FrontierView {
     /// The view from `robot`: paths cross free cells `path_clearance` from anything occupied;
     /// cells within `footprint` of the robot are passable whatever their clearance, so a robot
-    /// next to a wall can leave.
+    /// next to a wall can leave. Its clusters are the papers' (8-connected).
     pub fn new(grid: ClassGrid, robot: Pose2, path_clearance: f64, footprint: f64) -> Self {
+        Self::build(grid, robot, path_clearance, footprint, false)
+    }
+
+    /// FBE's and AG-SLAM's view: [`Self::new`] with `config`'s clearances, its clusters joined
+    /// across cut-off free cells when [`FbeConfig::join_clusters`].
+    pub fn for_fbe(grid: ClassGrid, robot: Pose2, config: &FbeConfig) -> Self {
+        Self::build(
+            grid,
+            robot,
+            config.path_clearance,
+            config.footprint_radius,
+            config.join_clusters,
+        )
+    }
+
+    fn build(
+        grid: ClassGrid,
+        robot: Pose2,
+        path_clearance: f64,
+        footprint: f64,
+        join: bool,
+    ) -> Self {
         let here = [robot.x, robot.y];
         let free = frontier::reachable_free(&grid, here);
         let cells = frontier::frontier_cells(&grid, &free);
-        let clusters = frontier::clusters(&grid, &cells);
+        let clusters = if join {
+            let through = frontier::cut_free_border(&grid, &free);
+            frontier::clusters_through(&grid, &cells, &through)
+        } else {
+            frontier::clusters(&grid, &cells)
+        };
         let clearance = frontier::clearance(&grid, &free);
         let not_occupied: Vec<bool> = grid
             .classes
@@ -148,17 +175,6 @@ impl FrontierView {
             parent,
             clusters,
         }
-    }
-
-    /// The view with its clusters joined across the free cells cut off the robot's component
-    /// when `join` ([`FbeConfig::join_clusters`]); as it is otherwise.
-    pub fn join_clusters(mut self, join: bool) -> Self {
-        if join {
-            let cells = frontier::frontier_cells(&self.grid, &self.free);
-            let through = frontier::cut_free_border(&self.grid, &self.free);
-            self.clusters = frontier::clusters_through(&self.grid, &cells, &through);
-        }
-        self
     }
 
     /// Whether a goal at `p` has the clearance and a path from the robot.
@@ -546,13 +562,7 @@ impl Planner for FbePlanner {
         self.grid
             .mark_free_disc([start.x, start.y], self.config.footprint_radius);
         self.grid.set_gaussians(&map.gaussians.means);
-        let view = FrontierView::new(
-            self.grid.classes(),
-            start,
-            self.config.path_clearance,
-            self.config.footprint_radius,
-        )
-        .join_clusters(self.config.join_clusters);
+        let view = FrontierView::for_fbe(self.grid.classes(), start, &self.config);
         let tolerance = self.executor.config().search.goal_tolerance;
         self.keeper.review(
             start,
@@ -669,13 +679,12 @@ pub(crate) mod tests {
     fn a_door_split_by_lines_of_free_cells_is_one_frontier_when_clusters_are_joined() {
         let (grid, robot) = striped_door_world();
         let config = FbeConfig::default();
-        let view = || {
-            FrontierView::new(
-                grid.clone(),
-                robot,
-                config.path_clearance,
-                config.footprint_radius,
-            )
+        let view = |join_clusters| {
+            let config = FbeConfig {
+                join_clusters,
+                ..config.clone()
+            };
+            FrontierView::for_fbe(grid.clone(), robot, &config)
         };
         let mut planner = FbePlanner::new(
             config.clone(),
@@ -684,13 +693,13 @@ pub(crate) mod tests {
         );
         // The papers' 8-connected clusters: the lines cut the door's frontier into single
         // cells, no cluster is left and the exploration would end with the door unexplored.
-        let papers = view();
+        let papers = view(false);
         assert!(papers.clusters.is_empty(), "{:?}", papers.clusters);
         assert!(planner.choose(&papers, robot).is_none());
 
         // Joined: one cluster, holding exactly the frontier cells a brute-force scan finds
         // (unseen cells beside the robot's component), more than the minimum.
-        let joined = view().join_clusters(true);
+        let joined = view(true);
         assert_eq!(joined.clusters.len(), 1, "{:?}", joined.clusters);
         let brute: Vec<usize> = (0..grid.len())
             .filter(|&c| {
@@ -712,8 +721,8 @@ pub(crate) mod tests {
         // Joining changes nothing where no free cell is cut off.
         let (ring, at) = ring_world();
         let plain = FrontierView::new(ring.clone(), at, 0.3, 0.3);
-        let plain_clusters = plain.clusters.clone();
-        assert_eq!(plain.join_clusters(true).clusters, plain_clusters);
+        let joined = FrontierView::for_fbe(ring, at, &config);
+        assert_eq!(joined.clusters, plain.clusters);
     }
 
     #[test]

@@ -101,13 +101,18 @@ fn nearest(grid: &ClassGrid, p: [f64; 2], mask: &[bool]) -> Option<usize> {
     })
 }
 
-/// Frontier cells: the free mask dilated 3 x 3, minus the free mask, that are unknown.
-pub fn frontier_cells(grid: &ClassGrid, free: &[bool]) -> Vec<bool> {
+/// Cells of `class` in the ring round the free mask: the mask dilated 3 x 3, minus the mask.
+fn border(grid: &ClassGrid, free: &[bool], class: CellClass) -> Vec<bool> {
     morph(grid, free, false)
         .into_iter()
         .enumerate()
-        .map(|(c, d)| d && !free[c] && grid.classes[c] == CellClass::Unknown)
+        .map(|(c, d)| d && !free[c] && grid.classes[c] == class)
         .collect()
+}
+
+/// Frontier cells: the free mask dilated 3 x 3, minus the free mask, that are unknown.
+pub fn frontier_cells(grid: &ClassGrid, free: &[bool]) -> Vec<bool> {
+    border(grid, free, CellClass::Unknown)
 }
 
 /// 8-connected clusters of frontier cells with more than `MIN_CLUSTER_CELLS` cells, in order
@@ -120,11 +125,7 @@ pub fn clusters(grid: &ClassGrid, frontier: &[bool]) -> Vec<Cluster> {
 /// off (a door seen from afar gives lines of free cells with unseen cells between them, too
 /// thin to survive it), yet they are no obstacle, only free space not known to be reachable.
 pub fn cut_free_border(grid: &ClassGrid, free: &[bool]) -> Vec<bool> {
-    morph(grid, free, false)
-        .into_iter()
-        .enumerate()
-        .map(|(c, d)| d && !free[c] && grid.classes[c] == CellClass::Free)
-        .collect()
+    border(grid, free, CellClass::Free)
 }
 
 /// [`clusters`], where two frontier cells are also joined through cells of `through` (they
