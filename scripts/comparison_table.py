@@ -10,14 +10,22 @@ new, with their means over the pairs both sweeps have; and, from the new sweep's
 two thirds and the whole of the common budget, the comparison at equal times.
 
     python3 scripts/comparison_table.py benchmarks/comparison-spawns benchmarks/comparison-fair
+
+Two sweeps of the same protocol that differ in one planner's option compare the same way: name
+the columns, keep the rows of the planners that changed, and take the differences against them:
+
+    python3 scripts/comparison_table.py benchmarks/comparison-fair benchmarks/comparison-joined \
+        --labels "papers' clusters,joined" --planners fbe,agslam --against fbe,agslam
 """
 
+import argparse
 import json
 import statistics
 import sys
 from pathlib import Path
 
 PLANNERS = ["survey", "rtguide", "fbe", "agslam"]
+NAMES = {"survey": "survey", "rtguide": "RT-GuIDE", "fbe": "FBE", "agslam": "AG-SLAM"}
 
 
 def episodes(folder):
@@ -43,12 +51,15 @@ def order(key):
     return (world, PLANNERS.index(planner) if planner in PLANNERS else 99, seed)
 
 
-def episode_table(old, new):
-    print("| world | planner | spawn | old: sim s, mapping steps | old PSNR dB | old coverage "
-          "| new: sim s, mapping steps | new PSNR dB | new coverage | new ended |")
+def episode_table(old, new, labels, planners):
+    a, b = labels
+    print(f"| world | planner | spawn | {a}: sim s, mapping steps | {a} PSNR dB | {a} coverage "
+          f"| {b}: sim s, mapping steps | {b} PSNR dB | {b} coverage | {b} ended |")
     print("|---|---|---:|---|---:|---:|---|---:|---:|---|")
     for key in sorted(new, key=order):
         world, planner, seed = key
+        if planner not in planners:
+            continue
         n = figures(new[key])
         o = figures(old[key]) if key in old else None
         old_cells = (f"{o[0]:.0f}, {o[1]} | {o[2]:.2f} | {o[3]:.1f}%" if o else "- | - | -")
@@ -64,20 +75,23 @@ def difference(runs, world, seed, other):
     return (fa[2] - fb[2], fa[3] - fb[3])
 
 
-def difference_table(old, new):
-    print("| world | spawn | RT-GuIDE - survey, old: dB, cov pts | new: dB, cov pts "
-          "| RT-GuIDE - FBE, old: dB, cov pts | new: dB, cov pts |")
-    print("|---|---:|---|---|---|---|")
+def difference_table(old, new, labels, against):
+    a, b = labels
+    print("| world | spawn | " + " | ".join(
+        f"RT-GuIDE - {NAMES.get(o, o)}, {a}: dB, cov pts | {b}: dB, cov pts" for o in against)
+        + " |")
+    print("|---|---:|" + "---|---|" * len(against))
     pairs = sorted({(w, s) for (w, p, s) in new if p == "rtguide"})
-    columns = {k: [] for k in ("os", "ns", "of", "nf")}
+    # Per column (planner, sweep): the differences of the pairs both sweeps have.
+    columns = {(o, which): [] for o in against for which in (0, 1)}
     for world, seed in pairs:
         cells = []
-        for tag, runs, other in (("os", old, "survey"), ("ns", new, "survey"),
-                                 ("of", old, "fbe"), ("nf", new, "fbe")):
-            d = difference(runs, world, seed, other)
-            cells.append(f"{d[0]:+.2f}, {d[1]:+.1f}" if d else "-")
-            if d and difference(old if tag[0] == "n" else new, world, seed, other):
-                columns[tag].append(d)
+        for other in against:
+            for which, (runs, rest) in enumerate(((old, new), (new, old))):
+                d = difference(runs, world, seed, other)
+                cells.append(f"{d[0]:+.2f}, {d[1]:+.1f}" if d else "-")
+                if d and difference(rest, world, seed, other):
+                    columns[(other, which)].append(d)
         print(f"| {world} | {seed} | " + " | ".join(cells) + " |")
 
     def mean(ds):
@@ -86,8 +100,8 @@ def difference_table(old, new):
         return (f"{statistics.mean(d[0] for d in ds):+.2f}, "
                 f"{statistics.mean(d[1] for d in ds):+.1f} (n = {len(ds)})")
 
-    print(f"| mean over the pairs both sweeps have | | {mean(columns['os'])} | {mean(columns['ns'])} "
-          f"| {mean(columns['of'])} | {mean(columns['nf'])} |")
+    print("| mean over the pairs both sweeps have | | " + " | ".join(
+        mean(columns[(o, which)]) for o in against for which in (0, 1)) + " |")
 
 
 def psnr_at(series, t):
@@ -120,15 +134,35 @@ def equal_times_table(new):
             + f" (n = {n}) |")
 
 
+def names(text, allowed=None):
+    """A comma-separated list; with `allowed`, every name must be one of them."""
+    items = [t.strip() for t in text.split(",") if t.strip()]
+    unknown = [t for t in items if allowed is not None and t not in allowed]
+    if unknown:
+        raise argparse.ArgumentTypeError(
+            f"unknown planner(s) {', '.join(unknown)}; choose from {', '.join(allowed)}")
+    return items
+
+
 def main():
-    if len(sys.argv) != 3:
-        sys.exit("usage: comparison_table.py OLD_SWEEP_FOLDER NEW_SWEEP_FOLDER")
-    old, new = episodes(sys.argv[1]), episodes(sys.argv[2])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("old", help="the first sweep's folder (WORLD/PLANNER/SEED/metrics.json)")
+    parser.add_argument("new", help="the second sweep's folder")
+    parser.add_argument("--labels", type=lambda t: names(t), default=["old", "new"],
+                        help="the two sweeps' names in the column heads (default: old,new)")
+    parser.add_argument("--planners", type=lambda t: names(t, PLANNERS), default=PLANNERS,
+                        help="the planners whose episodes the first table lists (default: all)")
+    parser.add_argument("--against", type=lambda t: names(t, PLANNERS), default=["survey", "fbe"],
+                        help="RT-GuIDE's differences are taken against these (default: survey,fbe)")
+    args = parser.parse_args()
+    if len(args.labels) != 2:
+        parser.error("--labels takes two names, the first sweep's and the second's")
+    old, new = episodes(args.old), episodes(args.new)
     if not new:
-        sys.exit(f"no finished episode (*/*/*/metrics.json) under {sys.argv[2]}")
-    episode_table(old, new)
+        sys.exit(f"no finished episode (*/*/*/metrics.json) under {args.new}")
+    episode_table(old, new, args.labels, args.planners)
     print()
-    difference_table(old, new)
+    difference_table(old, new, args.labels, args.against)
     print()
     equal_times_table(new)
 
