@@ -78,7 +78,7 @@ def difference(runs, world, seed, other):
 def difference_table(old, new, labels, against):
     a, b = labels
     print("| world | spawn | " + " | ".join(
-        f"RT-GuIDE - {NAMES.get(o, o)}, {a}: dB, cov pts | {b}: dB, cov pts" for o in against)
+        f"RT-GuIDE - {NAMES[o]}, {a}: dB, cov pts | {b}: dB, cov pts" for o in against)
         + " |")
     print("|---|---:|" + "---|---|" * len(against))
     pairs = sorted({(w, s) for (w, p, s) in new if p == "rtguide"})
@@ -148,7 +148,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("old", help="the first sweep's folder (WORLD/PLANNER/SEED/metrics.json)")
     parser.add_argument("new", help="the second sweep's folder")
-    parser.add_argument("--labels", type=lambda t: names(t), default=["old", "new"],
+    parser.add_argument("--labels", type=names, default=["old", "new"],
                         help="the two sweeps' names in the column heads (default: old,new)")
     parser.add_argument("--planners", type=lambda t: names(t, PLANNERS), default=PLANNERS,
                         help="the planners whose episodes the first table lists (default: all)")
