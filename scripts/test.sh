@@ -20,6 +20,18 @@ RUSTC_WORKSPACE_WRAPPER="$(command -v clippy-driver)" || {
 export RUSTC_WORKSPACE_WRAPPER
 export CLIPPY_ARGS="-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__"
 
+# Every test binary runs through scripts/crash_backtrace.sh: a test process that a crash in C
+# kills (MuJoCo, Mesa, EGL; once seen as a bare "signal: 11") prints each thread's backtrace.
+# Only where gdb can start a program and report its exit status (a sandbox may forbid ptrace).
+if gdb_status=$(gdb -q -batch -return-child-result -ex run --args sh -c 'exit 7' >/dev/null 2>&1; echo $?) &&
+  [ "$gdb_status" = 7 ]; then
+  host=$(rustc -vV | sed -n 's/^host: //p')
+  runner_var="CARGO_TARGET_$(echo "$host" | tr '[:lower:]-' '[:upper:]_')_RUNNER"
+  export "$runner_var=$PWD/scripts/crash_backtrace.sh"
+else
+  echo "note: gdb cannot run programs here; a crashing test will show no backtrace" >&2
+fi
+
 cargo test --workspace
 
 # The Python package from the test build's artefacts (the dev profile is optimised), into

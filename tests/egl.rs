@@ -52,3 +52,45 @@ fn a_missing_device_is_a_clear_error() {
     assert!(text.contains("EGL device 99 was requested"), "{text}");
     assert!(text.contains("Install Mesa's EGL"), "{text}");
 }
+
+/// MuJoCo's OpenGL loader (glad, run by `mjr_makeContext`) keeps its extension list in C
+/// globals that each call allocates and frees; cameras made on several threads at once (tests,
+/// a library user's parallel episodes) used to race there and crash the process (SIGSEGV in CI).
+/// Every camera made here, all threads starting together, renders the same depth as one made
+/// alone.
+#[test]
+fn cameras_made_on_many_threads_at_once_render_like_one_made_alone() {
+    let (_, alone) = depth_with(EglPlatform::Surfaceless);
+    let threads = 8;
+    let start = std::sync::Barrier::new(threads);
+    let depths: Vec<Vec<f32>> = std::thread::scope(|scope| {
+        let workers: Vec<_> = (0..threads)
+            .map(|_| {
+                scope.spawn(|| {
+                    let world = room();
+                    let gl = EglContext::with_options(EglOptions {
+                        platform: EglPlatform::Surfaceless,
+                        device: None,
+                    })
+                    .expect("context");
+                    let mut last = Vec::new();
+                    for _ in 0..10 {
+                        start.wait();
+                        let mut camera = world
+                            .make_camera(&SensorConfig::default(), 0, &gl)
+                            .expect("camera");
+                        last = camera.capture(world.data()).expect("frame").depth;
+                    }
+                    last
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .map(|w| w.join().expect("thread"))
+            .collect()
+    });
+    for depth in depths {
+        assert_eq!(depth, alone);
+    }
+}

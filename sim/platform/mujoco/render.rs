@@ -6,7 +6,7 @@ use super::sys;
 use super::{Data, Model};
 use crate::egl::{EglContext, GlFlush};
 use crate::error::{Result, SimError};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// Rendering features of the sensor; all off by default because they cost 10x on llvmpipe
 /// and a real depth camera sees none of them.
@@ -82,6 +82,14 @@ impl SceneRenderer {
                 ),
             });
         }
+        // mjr_makeContext runs MuJoCo's OpenGL loader (glad), whose function table and
+        // extension list are process-wide C globals written on every call: cameras made on
+        // several threads at once (parallel tests, a library user's parallel episodes) take
+        // turns. The lock guards C state, not ours; nothing else shares it.
+        static GL_LOADER: Mutex<()> = Mutex::new(());
+        let _loader = GL_LOADER
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
         // SAFETY: mjvScene, mjrContext, mjvOption, mjvCamera and mjvPerturb are plain C structs
         // that their mj*_default* functions fully initialise; make* allocate against a valid
         // model while the caller's GL context is current (the `gl` borrow).
