@@ -264,6 +264,12 @@ impl Controller {
     /// robot drives back along its trail, through space its body has just occupied, until
     /// the blocked place is in the camera's view (`autonomy::explore::retrace` says why a
     /// look around cannot cure it). `None` (a look around, remembered) otherwise.
+    ///
+    /// "No goal is reachable" counts as blocked: a planner that routes on its own grid
+    /// (AG-SLAM) takes a table top inside the papers' 1.3 m band for a wall, yet its executor
+    /// drives the 0.5 m robot under the table; once there, the grid boxes the robot in and a
+    /// look around only sees the table top again (robustness-as-is, apartment_03, spawn 5:
+    /// stuck under a table at 165-213 s).
     fn blocked_again(
         &mut self,
         failure: Option<&PlanFailure>,
@@ -272,7 +278,11 @@ impl Controller {
     ) -> Option<Schedule> {
         let blocked = matches!(
             failure,
-            Some(PlanFailure::NoCollisionFreeCandidate | PlanFailure::NoCandidateClearOfUnseen)
+            Some(
+                PlanFailure::NoCollisionFreeCandidate
+                    | PlanFailure::NoCandidateClearOfUnseen
+                    | PlanFailure::GoalUnreachable
+            )
         );
         if !blocked {
             return None;
@@ -577,6 +587,36 @@ mod tests {
         let further = run(&back, end);
         assert_eq!(c.retraces, 2);
         assert!(further.x < end.x - 0.5, "{end:?} -> {further:?}");
+    }
+
+    /// A planner whose own grid boxes in a place the robot just drove to (AG-SLAM under a
+    /// table whose top lies inside its 1.3 m band) fails with "no goal is reachable" however
+    /// it turns: the second such failure there retraces, as a blocked plan's does, and a
+    /// first one elsewhere looks around.
+    #[test]
+    fn no_reachable_goal_again_where_it_looked_around_retraces_the_way_it_came() {
+        let origin = Pose2::default();
+        let mut c = Controller::new(origin, Latency::None, DriveLimits::default());
+        let mut pose = origin;
+        for _ in 0..200 {
+            pose = autonomy::drive::advance(&pose, &FORWARD, 0.02);
+            c.moved(pose);
+        }
+        let here = pose;
+        let unreachable = || Some(Decision::Fail(PlanFailure::GoalUnreachable));
+        c.take(unreachable(), 10.0, here, here, think(0.0, 0.0), 0.0);
+        let (look, _) = c.pending.clone().expect("a look around");
+        assert!(look.commands.iter().all(|u| u.v == 0.0 && u.w != 0.0));
+        assert_eq!(c.retraces, 0);
+        c.take(unreachable(), look.end(), here, here, think(0.0, 0.0), 0.0);
+        assert_eq!((c.retraces, c.recovery_events), (1, 2));
+        let (back, _) = c.pending.clone().expect("a retrace");
+        // Back along the straight way it came: RETRACE_DISTANCE west of here, on the path.
+        let end = back.predict(here, back.start, back.end() - back.start);
+        assert!(
+            (end.x - (here.x - RETRACE_DISTANCE)).abs() < 0.03 && end.y.abs() < 0.03,
+            "{here:?} -> {end:?}"
+        );
     }
 
     /// The trap, as a fixture: RT-GuIDE's own planner and this controller in a closed loop on
