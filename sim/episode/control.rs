@@ -744,4 +744,146 @@ mod tests {
             );
         }
     }
+
+    /// The table trap, as a fixture: AG-SLAM's own planner and this controller in a closed
+    /// loop. A hall (3.2 m wide, walls north, south and west, its east end open: the one
+    /// frontier) has a table at its middle whose top (0.75 m, 1.1 x 1.0 m) the robot, 0.5 m
+    /// tall, drove under along the hall's axis. AG-SLAM's grid counts depth ends up to 1.3 m
+    /// (the papers' band), so the top's cells are occupied: from under it no goal is
+    /// reachable, and a look around changes nothing (here the grid is fixed; in the episode
+    /// the camera sees the same top again). Without the retrace the stuck watch ends the
+    /// episode under the table; with it the robot backs out along the way it came and plans
+    /// round the table toward the frontier.
+    #[test]
+    fn a_robot_boxed_in_under_a_table_by_agslams_grid_is_freed_by_the_retrace() {
+        use autonomy::explore::agslam::{AgslamConfig, AgslamPlanner};
+        use autonomy::explore::evidence::EvidenceGrid;
+        use autonomy::explore::executor::{CollisionEngine, ExecutorConfig};
+        use autonomy::explore::fbe::FbeConfig;
+        use autonomy::gaussians::Gaussians;
+        use autonomy::map::GaussianMap;
+        use autonomy::math::Point3;
+        use autonomy::planner::information::CameraMount;
+
+        let under_table = |x: f64, y: f64| x.abs() < 0.55 && y.abs() < 0.5;
+        let hall = |x: f64, y: f64| (-4.0..6.0).contains(&x) && y.abs() < 1.6;
+        // The body-height guard is off: this fixture is about the planner's own grid.
+        let config = AgslamConfig {
+            frontier: FbeConfig {
+                avoid_unseen: false,
+                ..FbeConfig::default()
+            },
+            ..AgslamConfig::default()
+        };
+        let mut grid = EvidenceGrid::new(config.frontier.evidence);
+        let cell = 0.05;
+        for j in -40..40 {
+            for i in -90..80 {
+                let (x, y) = ((f64::from(i) + 0.5) * cell, (f64::from(j) + 0.5) * cell);
+                if under_table(x, y) {
+                    // The table top, seen from the camera under it: rays that end in it at
+                    // 0.74 m, inside the papers' band.
+                    grid.integrate_ray(Point3::new(x + 1e-3, y, 0.4), Point3::new(x, y, 0.74));
+                } else if hall(x, y) && x < 4.0 {
+                    // Seen floor: a ray down to it.
+                    grid.integrate_ray(Point3::new(x, y, 0.5), Point3::new(x + 1e-3, y, 0.0));
+                } else if !hall(x, y) && x < 4.0 {
+                    // The walls: rays that end in them at the robot's height.
+                    grid.integrate_ray(Point3::new(x + 1e-3, y, 0.3), Point3::new(x, y, 0.3));
+                }
+            }
+        }
+        // The map: the table top's underside (the body, 0.5 m tall, passes under it).
+        let mut g = Gaussians::default();
+        for i in -10..=10 {
+            for j in -9..=9 {
+                g.push(
+                    [0.05 * i as f32, 0.05 * j as f32, 0.74],
+                    0.02,
+                    0.9,
+                    [0.5; 3],
+                );
+            }
+        }
+        let n = g.len();
+        let map = GaussianMap::new(g, vec![1e-3; n]);
+
+        let run = |retrace: bool| {
+            let mut planner = AgslamPlanner::with_evidence(
+                config.clone(),
+                CameraMount::default(),
+                ExecutorConfig::default(),
+                CollisionEngine::Grid,
+                grid.clone(),
+            );
+            // Its first plan is a look around at the start; here it had that long before.
+            let mut pose = Pose2 {
+                x: -3.0,
+                y: 0.0,
+                theta: 0.0,
+            };
+            let _ = autonomy::explore::Planner::plan(&mut planner, &map, pose);
+            let mut c = Controller::new(pose, Latency::None, DriveLimits::default());
+            while pose.x < 0.0 {
+                pose = autonomy::drive::advance(&pose, &FORWARD, 0.02);
+                c.moved(pose);
+            }
+            let mut poses = Vec::new();
+            let mut verdict = Verdict::Continue;
+            let mut time = 10.0;
+            while time < 70.0 && verdict == Verdict::Continue {
+                c.advance(time, || pose);
+                if !c.holding(time + 0.01) {
+                    let decision = autonomy::explore::Planner::plan(&mut planner, &map, pose);
+                    verdict = c.take(Some(decision), time, pose, pose, think(0.0, 0.0), 0.0);
+                    if !retrace {
+                        c.looked_at = None;
+                    }
+                }
+                for k in 0..50 {
+                    c.advance(time + 0.02 * k as f64, || pose);
+                    pose = autonomy::drive::advance(
+                        &pose,
+                        &c.command(time + 0.02 * k as f64 + 0.01),
+                        0.02,
+                    );
+                    c.moved(pose);
+                    poses.push((time + 0.02 * k as f64, pose));
+                }
+                time += 1.0;
+            }
+            (c, poses, verdict)
+        };
+
+        // Without the retrace: no goal is reachable, again and again, under the table.
+        let (c, poses, verdict) = run(false);
+        let unreachable = c.failures.get("GoalUnreachable").copied().unwrap_or(0);
+        assert!(unreachable >= 5, "{:?}", c.failures);
+        assert!(poses.iter().all(|(_, p)| under_table(p.x, p.y)));
+        assert!(
+            matches!(verdict, Verdict::Abort(ref why) if why.starts_with("stuck")),
+            "{verdict:?}"
+        );
+
+        // With it: out from under the table within a look around and a retrace, then round
+        // it toward the frontier; the stuck watch never fires.
+        let (c, poses, verdict) = run(true);
+        assert_eq!(verdict, Verdict::Continue, "{:?}", c.failures);
+        assert!(c.retraces >= 1);
+        let (out, at) = poses
+            .iter()
+            .find(|(_, p)| !under_table(p.x, p.y))
+            .copied()
+            .expect("the robot leaves the table");
+        assert!(out < 25.0, "out at {out} s ({at:?})");
+        assert!(at.x < 0.0, "it backs out the way it came: {at:?}");
+        let east = poses
+            .iter()
+            .map(|(_, p)| p.x)
+            .fold(f64::NEG_INFINITY, f64::max);
+        assert!(
+            east > 1.0,
+            "it gets past the table toward the frontier: {east:.2}"
+        );
+    }
 }

@@ -318,6 +318,21 @@ impl AgslamPlanner {
         }
     }
 
+    /// A planner whose grid starts as `grid` instead of empty (built with
+    /// `config.frontier.evidence`): for fixtures that need the robot to have seen a given
+    /// floor, as the host's trap tests do.
+    pub fn with_evidence(
+        config: AgslamConfig,
+        mount: CameraMount,
+        executor: ExecutorConfig,
+        engine: CollisionEngine,
+        grid: EvidenceGrid,
+    ) -> Self {
+        let mut planner = AgslamPlanner::new(config, mount, executor, engine);
+        planner.grid = grid;
+        planner
+    }
+
     fn small(&self, camera: &PinholeCamera) -> PinholeCamera {
         PinholeCamera {
             intrinsics: scaled(&camera.intrinsics, self.config.resolution_divisor),
