@@ -93,7 +93,7 @@ impl Plan {
 }
 
 /// No plan, and why: `kind` (EmptyMap, StartInCollision, NoCollisionFreeCandidate,
-/// NoCandidateClearOfUnseen, GoalUnreachable), `message`, and the host's `recovery` (turn_in_place or back_off).
+/// NoCandidateClearOfUnseen, GoalUnreachable, BoxedIn), `message`, and the host's `recovery` (turn_in_place or back_off).
 /// Returned from `plan`, the host runs that recovery, as for a built-in planner.
 #[pyclass(frozen, module = "splatloop._splatloop")]
 pub struct PlanFailure {

@@ -265,11 +265,12 @@ impl Controller {
     /// the blocked place is in the camera's view (`autonomy::explore::retrace` says why a
     /// look around cannot cure it). `None` (a look around, remembered) otherwise.
     ///
-    /// "No goal is reachable" counts as blocked: a planner that routes on its own grid
-    /// (AG-SLAM) takes a table top inside the papers' 1.3 m band for a wall, yet its executor
-    /// drives the 0.5 m robot under the table; once there, the grid boxes the robot in and a
-    /// look around only sees the table top again (robustness-as-is, apartment_03, spawn 5:
-    /// stuck under a table at 165-213 s).
+    /// A planner boxed in by its own grid counts as blocked: AG-SLAM takes a table top inside
+    /// the papers' 1.3 m band for a wall, yet its executor drives the 0.5 m robot under the
+    /// table; once there, the grid boxes the robot in and a look around only sees the table
+    /// top again (robustness-as-is, apartment_03, spawn 5: stuck under a table at 165-213 s).
+    /// Plain "no goal is reachable" does not: RT-GuIDE says it when no viewpoint has a clear
+    /// edge, and a retrace there undid its way out of a corridor.
     fn blocked_again(
         &mut self,
         failure: Option<&PlanFailure>,
@@ -281,7 +282,7 @@ impl Controller {
             Some(
                 PlanFailure::NoCollisionFreeCandidate
                     | PlanFailure::NoCandidateClearOfUnseen
-                    | PlanFailure::GoalUnreachable
+                    | PlanFailure::BoxedIn
             )
         );
         if !blocked {
@@ -590,25 +591,29 @@ mod tests {
     }
 
     /// A planner whose own grid boxes in a place the robot just drove to (AG-SLAM under a
-    /// table whose top lies inside its 1.3 m band) fails with "no goal is reachable" however
-    /// it turns: the second such failure there retraces, as a blocked plan's does, and a
-    /// first one elsewhere looks around.
+    /// table whose top lies inside its 1.3 m band) fails "boxed in" however it turns: the
+    /// second such failure there retraces, as a blocked plan's does. Plain "no goal is
+    /// reachable" twice in place only looks around (RT-GuIDE's, when no viewpoint has a
+    /// clear edge).
     #[test]
-    fn no_reachable_goal_again_where_it_looked_around_retraces_the_way_it_came() {
+    fn boxed_in_again_where_it_looked_around_retraces_the_way_it_came() {
         let origin = Pose2::default();
-        let mut c = Controller::new(origin, Latency::None, DriveLimits::default());
-        let mut pose = origin;
-        for _ in 0..200 {
-            pose = autonomy::drive::advance(&pose, &FORWARD, 0.02);
-            c.moved(pose);
-        }
-        let here = pose;
-        let unreachable = || Some(Decision::Fail(PlanFailure::GoalUnreachable));
-        c.take(unreachable(), 10.0, here, here, think(0.0, 0.0), 0.0);
+        let drive_east = || {
+            let mut c = Controller::new(origin, Latency::None, DriveLimits::default());
+            let mut pose = origin;
+            for _ in 0..200 {
+                pose = autonomy::drive::advance(&pose, &FORWARD, 0.02);
+                c.moved(pose);
+            }
+            (c, pose)
+        };
+        let (mut c, here) = drive_east();
+        let boxed_in = || Some(Decision::Fail(PlanFailure::BoxedIn));
+        c.take(boxed_in(), 10.0, here, here, think(0.0, 0.0), 0.0);
         let (look, _) = c.pending.clone().expect("a look around");
         assert!(look.commands.iter().all(|u| u.v == 0.0 && u.w != 0.0));
         assert_eq!(c.retraces, 0);
-        c.take(unreachable(), look.end(), here, here, think(0.0, 0.0), 0.0);
+        c.take(boxed_in(), look.end(), here, here, think(0.0, 0.0), 0.0);
         assert_eq!((c.retraces, c.recovery_events), (1, 2));
         let (back, _) = c.pending.clone().expect("a retrace");
         // Back along the straight way it came: RETRACE_DISTANCE west of here, on the path.
@@ -617,6 +622,22 @@ mod tests {
             (end.x - (here.x - RETRACE_DISTANCE)).abs() < 0.03 && end.y.abs() < 0.03,
             "{here:?} -> {end:?}"
         );
+
+        let (mut c, here) = drive_east();
+        let unreachable = || Some(Decision::Fail(PlanFailure::GoalUnreachable));
+        for k in 0..3 {
+            c.take(
+                unreachable(),
+                10.0 + 3.0 * k as f64,
+                here,
+                here,
+                think(0.0, 0.0),
+                0.0,
+            );
+            let (look, _) = c.pending.clone().expect("a look around");
+            assert!(look.commands.iter().all(|u| u.v == 0.0 && u.w != 0.0));
+        }
+        assert_eq!(c.retraces, 0);
     }
 
     /// The trap, as a fixture: RT-GuIDE's own planner and this controller in a closed loop on
@@ -749,8 +770,8 @@ mod tests {
     /// loop. A hall (3.2 m wide, walls north, south and west, its east end open: the one
     /// frontier) has a table at its middle whose top (0.75 m, 1.1 x 1.0 m) the robot, 0.5 m
     /// tall, drove under along the hall's axis. AG-SLAM's grid counts depth ends up to 1.3 m
-    /// (the papers' band), so the top's cells are occupied: from under it no goal is
-    /// reachable, and a look around changes nothing (here the grid is fixed; in the episode
+    /// (the papers' band), so the top's cells are occupied: under it the planner is boxed in
+    /// ([`PlanFailure::BoxedIn`]), and a look around changes nothing (here the grid is fixed; in the episode
     /// the camera sees the same top again). Without the retrace the stuck watch ends the
     /// episode under the table; with it the robot backs out along the way it came and plans
     /// round the table toward the frontier.
@@ -855,10 +876,10 @@ mod tests {
             (c, poses, verdict)
         };
 
-        // Without the retrace: no goal is reachable, again and again, under the table.
+        // Without the retrace: boxed in, again and again, under the table.
         let (c, poses, verdict) = run(false);
-        let unreachable = c.failures.get("GoalUnreachable").copied().unwrap_or(0);
-        assert!(unreachable >= 5, "{:?}", c.failures);
+        let boxed_in = c.failures.get("BoxedIn").copied().unwrap_or(0);
+        assert!(boxed_in >= 5, "{:?}", c.failures);
         assert!(poses.iter().all(|(_, p)| under_table(p.x, p.y)));
         assert!(
             matches!(verdict, Verdict::Abort(ref why) if why.starts_with("stuck")),

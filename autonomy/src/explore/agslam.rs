@@ -609,7 +609,12 @@ impl AgslamPlanner {
         let train = self.train_for(map);
         let (goals, centre) = self.candidate_goals(map, start, &view, &train);
         if goals.is_empty() {
-            return Decision::Fail(super::PlanFailure::GoalUnreachable);
+            let boxed_in = view.boxed_in([start.x, start.y], fc.footprint_radius + view.grid.cell);
+            return Decision::Fail(if boxed_in {
+                super::PlanFailure::BoxedIn
+            } else {
+                super::PlanFailure::GoalUnreachable
+            });
         }
         let t_setup = Instant::now();
         let (gaussians, local) = self.local_gaussians(map, start, &goals, centre, &view);
@@ -700,29 +705,12 @@ impl AgslamPlanner {
         let ranked = frontier::ranked(&view.grid, &view.clusters, [start.x, start.y]);
         let mut goals = Vec::new();
         let mut centre = [start.x, start.y];
-        for (i, _) in &ranked {
-            let c = view.clusters[*i].centroid;
-            goals = view.sample_goals(
-                c,
-                self.config.candidates,
-                fc.goal_radius,
-                fc.goal_clearance,
-                &mut self.rng,
-            );
-            goals.retain(|g| self.executor.is_free(g));
-            // FBE's rule when nothing is sampled near the centroid: the reachable cell
-            // nearest the cluster within the camera's range. Without it, a cluster whose
-            // centroid lies deep in unseen space (a warehouse's long aisles) offered no goal,
-            // the candidates were only the kept and previous goals, and the robot drove
-            // among places it had seen while the coverage stayed flat for hundreds of seconds.
-            if goals.is_empty() {
-                goals.extend(
-                    view.nearest_goal(&view.clusters[*i], fc.sensing_range, fc.goal_clearance)
-                        .filter(|g| self.executor.is_free(g)),
-                );
-            }
+        let mut chosen = ranked.len();
+        for (k, (i, _)) in ranked.iter().enumerate() {
+            goals = self.cluster_goals(view, *i);
             if !goals.is_empty() {
-                centre = c;
+                centre = view.clusters[*i].centroid;
+                chosen = k;
                 break;
             }
         }
@@ -741,14 +729,53 @@ impl AgslamPlanner {
         // A goal the robot already stands at, facing its way, is the view it has: choosing it
         // again would only stand still (and the progress watch would back the robot off).
         let tolerance = self.executor.config().search.goal_tolerance;
-        let reached = |g: &Pose2| {
-            start.distance([g.x, g.y]) <= tolerance
-                && crate::drive::wrap_angle(g.theta - start.theta).abs() < REACHED_HEADING
+        let usable = |executor: &Executor, g: &Pose2| {
+            let reached = start.distance([g.x, g.y]) <= tolerance
+                && crate::drive::wrap_angle(g.theta - start.theta).abs() < REACHED_HEADING;
+            !reached && view.admits([g.x, g.y], fc.goal_clearance) && executor.is_free(g)
         };
-        goals.retain(|g| {
-            !reached(g) && view.admits([g.x, g.y], fc.goal_clearance) && self.executor.is_free(g)
-        });
+        goals.retain(|g| usable(&self.executor, g));
+        // Every goal of the chosen cluster was reached and the cluster is still there (the
+        // view from its goal did not clear it: a frontier along a wall's face): the next
+        // clusters' goals, in rank order. Before, the plan failed "no goal is reachable" in
+        // place until the stuck watch ended the episode (robustness-as-is, apartment_03,
+        // spawn 5). Only this case changes: with any usable goal, the choice is as before.
+        if goals.is_empty() {
+            for (i, _) in ranked.iter().skip(chosen + 1) {
+                goals = self.cluster_goals(view, *i);
+                goals.retain(|g| usable(&self.executor, g));
+                if !goals.is_empty() {
+                    centre = view.clusters[*i].centroid;
+                    break;
+                }
+            }
+        }
         (goals, centre)
+    }
+
+    /// Goal poses for cluster `i`: samples round its centroid that the robot's body fits, or
+    /// FBE's rule when none does: the reachable cell nearest the cluster within the camera's
+    /// range. Without that rule, a cluster whose centroid lies deep in unseen space (a
+    /// warehouse's long aisles) offered no goal, the candidates were only the kept and
+    /// previous goals, and the robot drove among places it had seen while the coverage stayed
+    /// flat for hundreds of seconds.
+    fn cluster_goals(&mut self, view: &FrontierView, i: usize) -> Vec<Pose2> {
+        let fc = &self.config.frontier;
+        let mut goals = view.sample_goals(
+            view.clusters[i].centroid,
+            self.config.candidates,
+            fc.goal_radius,
+            fc.goal_clearance,
+            &mut self.rng,
+        );
+        goals.retain(|g| self.executor.is_free(g));
+        if goals.is_empty() {
+            goals.extend(
+                view.nearest_goal(&view.clusters[i], fc.sensing_range, fc.goal_clearance)
+                    .filter(|g| self.executor.is_free(g)),
+            );
+        }
+        goals
     }
 
     /// The map's Gaussians a view of this plan can see (within sensor range of the goals'
@@ -842,6 +869,7 @@ impl AgslamPlanner {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::explore::evidence::CellClass;
     use crate::explore::fbe::tests::ring_world;
 
     /// FBE's give-up case for AG-SLAM: a frontier ring whose centroid lies more than 5 m from
@@ -867,5 +895,67 @@ mod tests {
             .expect("a reachable cell within range");
         assert_eq!(goals, vec![nearest]);
         assert_eq!(centre, view.clusters[0].centroid);
+    }
+
+    /// A frontier that viewing from its only goal does not clear (a wall's face; apartment_03,
+    /// issue 40): the robot stands at the ring's one goal, facing it, and the ring is still
+    /// there. Its goal is reached, so the candidates are the next cluster's (a patch of unseen
+    /// floor far off), not none ("no goal is reachable" in place until the stuck watch ended
+    /// the episode).
+    #[test]
+    fn a_cluster_whose_only_goal_is_reached_yields_to_the_next() {
+        let (mut grid, far_robot) = ring_world();
+        for c in 0..grid.len() {
+            let p = grid.centre(c);
+            if (p[0] - 2.0).abs() < 0.5 && (p[1] - 14.0).abs() < 0.5 {
+                grid.classes[c] = CellClass::Unknown;
+            }
+        }
+        let config = AgslamConfig::default();
+        let fc = config.frontier.clone();
+        let ring_at = |view: &FrontierView| {
+            view.clusters
+                .iter()
+                .position(|c| (c.centroid[0] - 8.0).hypot(c.centroid[1] - 8.0) < 1.0)
+                .expect("the ring's cluster")
+        };
+        let view = FrontierView::new(
+            grid.clone(),
+            far_robot,
+            fc.path_clearance,
+            fc.footprint_radius,
+        );
+        let goal = view
+            .nearest_goal(
+                &view.clusters[ring_at(&view)],
+                fc.sensing_range,
+                fc.goal_clearance,
+            )
+            .expect("the ring's goal");
+        // The robot at that goal, facing its way: the ring ranks first from there.
+        let view = FrontierView::new(grid, goal, fc.path_clearance, fc.footprint_radius);
+        let ring = ring_at(&view);
+        let ranked = frontier::ranked(&view.grid, &view.clusters, [goal.x, goal.y]);
+        assert_eq!(ranked[0].0, ring);
+        assert_eq!(
+            view.nearest_goal(&view.clusters[ring], fc.sensing_range, fc.goal_clearance),
+            Some(goal)
+        );
+        let mut planner = AgslamPlanner::new(
+            config,
+            CameraMount::default(),
+            ExecutorConfig::default(),
+            CollisionEngine::Grid,
+        );
+        let map = GaussianMap::new(Gaussians::default(), Vec::new());
+        let (goals, centre) = planner.candidate_goals(&map, goal, &view, &[]);
+        assert!(!goals.is_empty());
+        assert!(
+            (centre[0] - 2.0).abs() < 0.6 && (centre[1] - 14.0).abs() < 0.6,
+            "{centre:?}"
+        );
+        assert!(goals
+            .iter()
+            .all(|g| (g.x - 2.0).hypot(g.y - 14.0) < fc.sensing_range + 1.0));
     }
 }

@@ -177,6 +177,15 @@ impl FrontierView {
         }
     }
 
+    /// Whether no cell further than `radius` from `robot` has a path from it: the robot
+    /// cannot leave the disc its footprint frees (see [`super::PlanFailure::BoxedIn`]).
+    pub fn boxed_in(&self, robot: [f64; 2], radius: f64) -> bool {
+        !(0..self.grid.len()).any(|c| {
+            let p = self.grid.centre(c);
+            self.distance[c].is_finite() && (p[0] - robot[0]).hypot(p[1] - robot[1]) > radius
+        })
+    }
+
     /// Whether a goal at `p` has the clearance and a path from the robot.
     pub fn admits(&self, p: [f64; 2], clearance: f64) -> bool {
         self.grid

@@ -117,6 +117,14 @@ pub enum PlanFailure {
     /// No goal is reachable.
     #[error("no goal is reachable from here; turn in place to look around")]
     GoalUnreachable,
+    /// The planner's grid has no way out of the robot's position: no cell beyond the disc the
+    /// robot's footprint frees has a path. A grid that takes what the robot fits under (a
+    /// table top inside AG-SLAM's 1.3 m band) for a wall boxes in a place the robot's body
+    /// just drove to; looking around sees the same top again. Told apart from
+    /// [`PlanFailure::GoalUnreachable`] because the host's cure differs: after a look around,
+    /// drive back the way the robot came.
+    #[error("the planner's grid has no way out of here (is the robot under something it fits under?); turn in place to look around, then drive back the way it came")]
+    BoxedIn,
 }
 
 /// What the host should do after a failure.
@@ -145,6 +153,7 @@ impl PlanFailure {
             PlanFailure::NoCollisionFreeCandidate => "NoCollisionFreeCandidate",
             PlanFailure::NoCandidateClearOfUnseen => "NoCandidateClearOfUnseen",
             PlanFailure::GoalUnreachable => "GoalUnreachable",
+            PlanFailure::BoxedIn => "BoxedIn",
         }
     }
 }

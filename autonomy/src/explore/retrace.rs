@@ -11,10 +11,10 @@
 //! and from [`RETRACE_DISTANCE`] back the camera sees the blocked place from outside its
 //! blind zone, so the map and the evidence grid can change there.
 //!
-//! The same cure serves "no goal is reachable" repeated in place: a planner that routes on its
-//! own grid can box in a place its executor let the body drive to (AG-SLAM's 1.3 m band takes
-//! a table top for a wall; the 0.5 m robot drives under it, and every look around sees the top
-//! again). The trail out is the way the body came in.
+//! The same cure serves a planner boxed in by its own grid (`PlanFailure::BoxedIn`) twice in
+//! place: a planner that routes on its own grid can box in a place its executor let the body
+//! drive to (AG-SLAM's 1.3 m band takes a table top for a wall; the 0.5 m robot drives under
+//! it, and every look around sees the top again). The trail out is the way the body came in.
 //!
 //! The chassis is symmetric about the wheel axle (0.25 m either way), so driving the path
 //! backwards facing the other way sweeps the same floor as driving it forwards did.
