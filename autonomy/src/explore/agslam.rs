@@ -703,17 +703,12 @@ impl AgslamPlanner {
     ) -> (Vec<Pose2>, [f64; 2]) {
         let fc = self.config.frontier.clone();
         let ranked = frontier::ranked(&view.grid, &view.clusters, [start.x, start.y]);
-        let mut goals = Vec::new();
-        let mut centre = [start.x, start.y];
-        let mut chosen = ranked.len();
-        for (k, (i, _)) in ranked.iter().enumerate() {
-            goals = self.cluster_goals(view, *i);
-            if !goals.is_empty() {
-                centre = view.clusters[*i].centroid;
-                chosen = k;
-                break;
-            }
-        }
+        let (chosen, mut goals) = self
+            .first_cluster_with_goals(view, &ranked, 0, |_, _| true)
+            .unwrap_or((ranked.len(), Vec::new()));
+        let mut centre = ranked
+            .get(chosen)
+            .map_or([start.x, start.y], |(i, _)| view.clusters[*i].centroid);
         if !ranked.is_empty() && goals.is_empty() {
             tracing::debug!(
                 "agslam: none of {} frontier clusters has a goal pose the robot can reach; \
@@ -741,16 +736,33 @@ impl AgslamPlanner {
         // place until the stuck watch ended the episode (robustness-as-is, apartment_03,
         // spawn 5). Only this case changes: with any usable goal, the choice is as before.
         if goals.is_empty() {
-            for (i, _) in ranked.iter().skip(chosen + 1) {
-                goals = self.cluster_goals(view, *i);
-                goals.retain(|g| usable(&self.executor, g));
-                if !goals.is_empty() {
-                    centre = view.clusters[*i].centroid;
-                    break;
-                }
+            if let Some((k, next)) =
+                self.first_cluster_with_goals(view, &ranked, chosen + 1, usable)
+            {
+                goals = next;
+                centre = view.clusters[ranked[k].0].centroid;
             }
         }
         (goals, centre)
+    }
+
+    /// The first cluster of `ranked`, from rank `from` on, with goals that `keep` keeps (by
+    /// [`Self::cluster_goals`]): its rank and those goals.
+    fn first_cluster_with_goals(
+        &mut self,
+        view: &FrontierView,
+        ranked: &[(usize, f64)],
+        from: usize,
+        keep: impl Fn(&Executor, &Pose2) -> bool,
+    ) -> Option<(usize, Vec<Pose2>)> {
+        for (k, (i, _)) in ranked.iter().enumerate().skip(from) {
+            let mut goals = self.cluster_goals(view, *i);
+            goals.retain(|g| keep(&self.executor, g));
+            if !goals.is_empty() {
+                return Some((k, goals));
+            }
+        }
+        None
     }
 
     /// Goal poses for cluster `i`: samples round its centroid that the robot's body fits, or
