@@ -640,6 +640,50 @@ mod tests {
         assert_eq!(c.retraces, 0);
     }
 
+    /// The trap fixtures' closed loop: the robot drives east from `from` to x = 0 (its trail),
+    /// then from t = 10 s to 70 s `planner` plans whenever no schedule holds, and the
+    /// controller's commands are driven in 20 ms steps, until the stuck watch ends it.
+    /// `retrace` false forgets every look around, so no retrace ever starts: the trap as it
+    /// was.
+    fn closed_loop(
+        planner: &mut dyn autonomy::explore::Planner,
+        map: &autonomy::map::GaussianMap,
+        from: Pose2,
+        retrace: bool,
+    ) -> (Controller, Vec<(f64, Pose2)>, Verdict) {
+        let mut pose = from;
+        let mut c = Controller::new(pose, Latency::None, DriveLimits::default());
+        while pose.x < 0.0 {
+            pose = autonomy::drive::advance(&pose, &FORWARD, 0.02);
+            c.moved(pose);
+        }
+        let mut poses = Vec::new();
+        let mut verdict = Verdict::Continue;
+        let mut time = 10.0;
+        while time < 70.0 && verdict == Verdict::Continue {
+            c.advance(time, || pose);
+            if !c.holding(time + 0.01) {
+                let decision = autonomy::explore::Planner::plan(planner, map, pose);
+                verdict = c.take(Some(decision), time, pose, pose, think(0.0, 0.0), 0.0);
+                if !retrace {
+                    c.looked_at = None;
+                }
+            }
+            for k in 0..50 {
+                c.advance(time + 0.02 * k as f64, || pose);
+                pose = autonomy::drive::advance(
+                    &pose,
+                    &c.command(time + 0.02 * k as f64 + 0.01),
+                    0.02,
+                );
+                c.moved(pose);
+                poses.push((time + 0.02 * k as f64, pose));
+            }
+            time += 1.0;
+        }
+        (c, poses, verdict)
+    }
+
     /// The trap, as a fixture: RT-GuIDE's own planner and this controller in a closed loop on
     /// the unicycle model. The robot has driven 2 m east along a seen corridor to a strip of
     /// floor no ray has crossed (0.45-0.6 m ahead, in the camera's blind zone: the camera
@@ -691,41 +735,12 @@ mod tests {
         let run = |retrace: bool| {
             let mut planner =
                 RtGuidePlanner::with_evidence(config.clone(), CollisionEngine::Grid, grid.clone());
-            let mut pose = Pose2 {
+            let from = Pose2 {
                 x: -2.0,
                 y: 0.0,
                 theta: 0.0,
             };
-            let mut c = Controller::new(pose, Latency::None, DriveLimits::default());
-            while pose.x < 0.0 {
-                pose = autonomy::drive::advance(&pose, &FORWARD, 0.02);
-                c.moved(pose);
-            }
-            let mut poses = Vec::new();
-            let mut verdict = Verdict::Continue;
-            let mut time = 10.0;
-            while time < 70.0 && verdict == Verdict::Continue {
-                c.advance(time, || pose);
-                if !c.holding(time + 0.01) {
-                    let decision = autonomy::explore::Planner::plan(&mut planner, &map, pose);
-                    verdict = c.take(Some(decision), time, pose, pose, think(0.0, 0.0), 0.0);
-                    if !retrace {
-                        c.looked_at = None;
-                    }
-                }
-                for k in 0..50 {
-                    c.advance(time + 0.02 * k as f64, || pose);
-                    pose = autonomy::drive::advance(
-                        &pose,
-                        &c.command(time + 0.02 * k as f64 + 0.01),
-                        0.02,
-                    );
-                    c.moved(pose);
-                    poses.push((time + 0.02 * k as f64, pose));
-                }
-                time += 1.0;
-            }
-            (c, poses, verdict)
+            closed_loop(&mut planner, &map, from, retrace)
         };
 
         // Without the retrace: the reported trap.
@@ -838,42 +853,13 @@ mod tests {
                 grid.clone(),
             );
             // Its first plan is a look around at the start; here it had that long before.
-            let mut pose = Pose2 {
+            let from = Pose2 {
                 x: -3.0,
                 y: 0.0,
                 theta: 0.0,
             };
-            let _ = autonomy::explore::Planner::plan(&mut planner, &map, pose);
-            let mut c = Controller::new(pose, Latency::None, DriveLimits::default());
-            while pose.x < 0.0 {
-                pose = autonomy::drive::advance(&pose, &FORWARD, 0.02);
-                c.moved(pose);
-            }
-            let mut poses = Vec::new();
-            let mut verdict = Verdict::Continue;
-            let mut time = 10.0;
-            while time < 70.0 && verdict == Verdict::Continue {
-                c.advance(time, || pose);
-                if !c.holding(time + 0.01) {
-                    let decision = autonomy::explore::Planner::plan(&mut planner, &map, pose);
-                    verdict = c.take(Some(decision), time, pose, pose, think(0.0, 0.0), 0.0);
-                    if !retrace {
-                        c.looked_at = None;
-                    }
-                }
-                for k in 0..50 {
-                    c.advance(time + 0.02 * k as f64, || pose);
-                    pose = autonomy::drive::advance(
-                        &pose,
-                        &c.command(time + 0.02 * k as f64 + 0.01),
-                        0.02,
-                    );
-                    c.moved(pose);
-                    poses.push((time + 0.02 * k as f64, pose));
-                }
-                time += 1.0;
-            }
-            (c, poses, verdict)
+            let _ = autonomy::explore::Planner::plan(&mut planner, &map, from);
+            closed_loop(&mut planner, &map, from, retrace)
         };
 
         // Without the retrace: boxed in, again and again, under the table.
