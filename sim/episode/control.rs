@@ -786,8 +786,8 @@ mod tests {
     /// frontier) has a table at its middle whose top (0.75 m, 1.1 x 1.0 m) the robot, 0.5 m
     /// tall, drove under along the hall's axis. AG-SLAM's grid counts depth ends up to 1.3 m
     /// (the papers' band), so the top's cells are occupied: under it the planner is boxed in
-    /// ([`PlanFailure::BoxedIn`]), and a look around changes nothing (here the grid is fixed; in the episode
-    /// the camera sees the same top again). Without the retrace the stuck watch ends the
+    /// ([`PlanFailure::BoxedIn`]), and a look around changes nothing (here the grid is fixed;
+    /// in the episode the camera sees the same top again). Without the retrace the stuck watch ends the
     /// episode under the table; with it the robot backs out along the way it came and plans
     /// round the table toward the frontier.
     #[test]
