@@ -211,11 +211,44 @@ fn a_sweep_gathers_every_episode_and_a_rerun_runs_nothing() {
             .collect()
     };
     let before = written();
-    let again = run_sweep(&out, &args);
+    // By default every episode keeps its dataset; a rerun with --keep-frames false removes
+    // the images from the episodes already complete, and nothing their numbers come from.
+    let first = episode(&out, "fbe", 1);
+    let images = std::fs::read_dir(first.join("rgb")).expect("rgb/").count();
+    assert!(images > 10, "{images} images");
+    let kept = [
+        "metrics.json",
+        "episode.json",
+        "groundtruth.txt",
+        "camera.json",
+        "map.ply",
+    ];
+    let kept_bytes = |folder: &Path| -> Vec<Vec<u8>> {
+        kept.iter()
+            .map(|name| std::fs::read(folder.join(name)).expect(name))
+            .collect()
+    };
+    let numbers_before = kept_bytes(&first);
+    let mut dropping = args.to_vec();
+    dropping.extend(["--keep-frames", "false"]);
+    let again = run_sweep(&out, &dropping);
     let said = String::from_utf8_lossy(&again.stdout);
     assert!(said.contains("4 complete before, 0 run now"), "{said}");
     let after = written();
     assert_eq!(before, after);
+    for row in &table {
+        let folder = episode(&out, &row["planner"], row["seed"].parse().expect("seed"));
+        for name in splatloop::dataset::FRAME_FILES {
+            assert!(!folder.join(name).exists(), "{name} left in {folder:?}");
+        }
+    }
+    assert_eq!(kept_bytes(&first), numbers_before);
+    assert_eq!(json(&out.join("sweep.json"))["keep_frames"], false);
+    assert_eq!(
+        rows(&out),
+        table,
+        "the results are the same without the images"
+    );
 
     // Other settings in the same folder are refused, naming what changed.
     let mut changed = args;
@@ -394,6 +427,8 @@ fn each_slurm_array_task_runs_exactly_its_episode() {
         "5",
         "--backend",
         "slurm",
+        "--keep-frames",
+        "false",
     ];
     let written = run_sweep(&out, &args);
     assert!(String::from_utf8_lossy(&written.stdout).contains("episode.sbatch"));
@@ -429,6 +464,10 @@ fn each_slurm_array_task_runs_exactly_its_episode() {
         );
         let metrics = json(&episode(&out, planner, 1).join("metrics.json"));
         assert_eq!(metrics["planner"], planner);
+        // The sweep's --keep-frames false reached the task: its images went once complete.
+        let folder = episode(&out, planner, 1);
+        assert!(folder.join("groundtruth.txt").exists());
+        assert!(!folder.join("rgb").exists() && !folder.join("transforms.json").exists());
         assert_eq!(
             metrics["simulated_seconds"].as_f64().map(f64::round),
             Some(5.0)

@@ -39,6 +39,13 @@ pub struct SweepArgs {
     /// The sweep's folder (a rerun with the same settings resumes it).
     #[arg(long, required = true)]
     out: Option<PathBuf>,
+    /// Keep each complete episode's images (rgb/, depth/, their lists, transforms.json):
+    /// `false` removes them once its metrics.json is written, and from episodes already
+    /// complete on a rerun; the numbers, poses and maps stay. A benchmark sweep needs none of
+    /// them, and they are most of its disk: about 0.2 GB an episode at 320x240 for 300 s.
+    #[arg(long, action = clap::ArgAction::Set, num_args = 0..=1, default_value_t = true,
+          default_missing_value = "true", value_name = "BOOL")]
+    keep_frames: bool,
     /// Episodes at once (local backend; with ray, the most in flight).
     #[arg(long)]
     jobs: Option<usize>,
@@ -173,6 +180,7 @@ pub fn sweep(args: SweepArgs) -> Result<Option<u8>> {
         seeds: sweep::parse_seeds(args.seeds.as_deref().unwrap_or_default())?,
         budget,
         run_options,
+        keep_frames: args.keep_frames,
     };
     let sweep = Sweep::open(&out, spec)?;
     let backend = match args.backend {

@@ -4,7 +4,7 @@
 //! (`ray_driver.py`). Either way a finished episode is settled here: complete, or failed with
 //! its error recorded beside its folder, and the others go on.
 
-use super::spec::{EpisodeState, Sweep};
+use super::spec::{Episode, EpisodeState, Sweep};
 use crate::episode::StopRequest;
 use crate::error::{Result, SimError};
 use std::io::BufRead;
@@ -116,6 +116,16 @@ pub fn run_sweep(
         .map(|e| matches!(sweep.state(e), EpisodeState::Complete { .. }))
         .collect();
     report.skipped = done.iter().filter(|d| **d).count();
+    let mut freed = 0;
+    for (e, _) in sweep.episodes.iter().zip(&done).filter(|(_, d)| **d) {
+        freed += drop_frames_unless_kept(sweep, e)?;
+    }
+    if freed > 0 {
+        tracing::info!(
+            "--keep-frames false: removed {:.2} GB of images from the episodes already complete",
+            freed as f64 / 1e9
+        );
+    }
     progress.complete = report.skipped;
     on_progress(&progress);
     for (number, batch) in sweep.batches().into_iter().enumerate() {
@@ -320,6 +330,7 @@ fn settle(
     let e = &sweep.episodes[index];
     let state = sweep.state(e);
     if let (EpisodeState::Complete { .. }, Ok(Some(0))) = (&state, &outcome) {
+        drop_frames_unless_kept(sweep, e)?;
         let stale = sweep.failure_file(e);
         if stale.exists() {
             std::fs::remove_file(&stale)
@@ -349,6 +360,15 @@ fn settle(
     );
     record_failure(sweep, index, &error)?;
     Ok(Some(error))
+}
+
+/// Removes a complete episode's images when the sweep keeps none (`--keep-frames false`);
+/// the bytes freed.
+fn drop_frames_unless_kept(sweep: &Sweep, e: &Episode) -> Result<u64> {
+    if sweep.spec.keep_frames {
+        return Ok(0);
+    }
+    crate::dataset::remove_frames(&sweep.folder(e))
 }
 
 fn record_failure(sweep: &Sweep, index: usize, error: &str) -> Result<()> {

@@ -42,6 +42,16 @@ pub struct SweepSpec {
     pub budget: Budget,
     /// The run options every episode gets, by long name (`latency: "none"` is `--latency none`).
     pub run_options: Map<String, Value>,
+    /// Whether a complete episode keeps its images (`dataset::FRAME_FILES`). It decides no
+    /// number, so it is not compared on a rerun: the last command's choice is stored, and a
+    /// rerun with `false` removes them from the episodes already complete too.
+    #[serde(default = "keep_frames_by_default")]
+    pub keep_frames: bool,
+}
+
+/// Sweeps written before `keep_frames` existed kept every episode's images.
+fn keep_frames_by_default() -> bool {
+    true
 }
 
 /// One episode of a sweep.
@@ -107,6 +117,18 @@ impl Sweep {
             let earlier = read_spec(&file)?;
             if let Some(detail) = first_difference(&earlier, &sweep.spec) {
                 return Err(SimError::SweepChanged { path: file, detail });
+            }
+            if earlier.keep_frames != sweep.spec.keep_frames {
+                // Stored as it was read (worlds relative), for `sweep episode` to follow.
+                let text =
+                    std::fs::read(&file).map_err(|e| SimError::io("cannot read", &file, e))?;
+                let mut stored: Value =
+                    serde_json::from_slice(&text).map_err(|source| SimError::BadJson {
+                        path: file.clone(),
+                        source,
+                    })?;
+                stored["keep_frames"] = Value::Bool(sweep.spec.keep_frames);
+                crate::dataset::write_json(&file, &stored)?;
             }
         } else {
             let stored = SweepSpec {
@@ -656,6 +678,7 @@ mod tests {
             seeds: vec![3],
             budget: Budget::Seconds(10.0),
             run_options: Map::new(),
+            keep_frames: true,
         }
     }
 
