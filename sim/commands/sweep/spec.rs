@@ -122,12 +122,12 @@ impl Sweep {
                 // Stored as it was read (worlds relative), for `sweep episode` to follow.
                 let text =
                     std::fs::read(&file).map_err(|e| SimError::io("cannot read", &file, e))?;
-                let mut stored: Value =
+                let mut stored: SweepSpec =
                     serde_json::from_slice(&text).map_err(|source| SimError::BadJson {
                         path: file.clone(),
                         source,
                     })?;
-                stored["keep_frames"] = Value::Bool(sweep.spec.keep_frames);
+                stored.keep_frames = sweep.spec.keep_frames;
                 crate::dataset::write_json(&file, &stored)?;
             }
         } else {
