@@ -31,7 +31,12 @@ def episodes(folder):
         if seed.startswith("."):
             continue
         with open(path) as f:
-            found[(world, planner, int(seed))] = json.load(f)
+            metrics = json.load(f)
+        # An interrupted episode (a sweep stopped by a signal) is not a result: the sweep
+        # reruns it, as `splatloop sweep` counts it as not run.
+        if metrics.get("ended", "").startswith("interrupted"):
+            continue
+        found[(world, planner, int(seed))] = metrics
     return found
 
 
