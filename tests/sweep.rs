@@ -243,6 +243,11 @@ fn a_sweep_gathers_every_episode_and_a_rerun_runs_nothing() {
         }
     }
     assert_eq!(kept_bytes(&first), numbers_before);
+    let refused = splatloop::dataset::Dataset::open(&first).expect_err("no images to read");
+    assert!(
+        refused.to_string().contains("--keep-frames false"),
+        "{refused}"
+    );
     assert_eq!(json(&out.join("sweep.json"))["keep_frames"], false);
     assert_eq!(
         rows(&out),

@@ -131,7 +131,7 @@ pub const FRAME_FILES: [&str; 9] = [
 /// keeping what its numbers and poses are (metrics.json, episode.json, groundtruth.txt,
 /// camera.json, the maps): a benchmark sweep reads none of the images, which are most of an
 /// episode's bytes (about 0.2 GB at 320x240 for 300 s). A folder without them is no longer a
-/// dataset: `Dataset::open` refuses it for the missing rgb.txt. Returns the bytes freed.
+/// dataset: `Dataset::open` refuses it, saying why. Returns the bytes freed.
 pub fn remove_frames(dir: &Path) -> Result<u64> {
     let mut freed = 0;
     for name in FRAME_FILES {

@@ -43,6 +43,15 @@ impl Dataset {
     /// Opens a folder written by [`super::DatasetWriter`] (or any TUM folder with camera.json).
     pub fn open(dir: &Path) -> Result<Self> {
         let camera = CameraFile::read(&dir.join("camera.json"))?;
+        if !dir.join("rgb.txt").exists() && dir.join("metrics.json").exists() {
+            return Err(SimError::BadDataset {
+                path: dir.to_owned(),
+                detail: "an episode folder without its images (no rgb.txt): a sweep run with \
+                         --keep-frames false removes them once the episode is complete; rerun \
+                         the episode, or the sweep in a new folder, to have them"
+                    .into(),
+            });
+        }
         let labels_path = dir.join("labels.json");
         let labels: Option<Labels> = if labels_path.exists() {
             let text = std::fs::read_to_string(&labels_path)
