@@ -114,19 +114,13 @@ impl Sweep {
         // leave a file that then refuses the corrected one as "other settings".
         let sweep = Sweep::new(out.clone(), spec)?;
         if file.exists() {
-            let earlier = read_spec(&file)?;
+            let mut stored = read_stored_spec(&file)?;
+            let earlier = resolve_stored_worlds(&file, stored.clone());
             if let Some(detail) = first_difference(&earlier, &sweep.spec) {
                 return Err(SimError::SweepChanged { path: file, detail });
             }
             if earlier.keep_frames != sweep.spec.keep_frames {
                 // Stored as it was read (worlds relative), for `sweep episode` to follow.
-                let text =
-                    std::fs::read(&file).map_err(|e| SimError::io("cannot read", &file, e))?;
-                let mut stored: SweepSpec =
-                    serde_json::from_slice(&text).map_err(|source| SimError::BadJson {
-                        path: file.clone(),
-                        source,
-                    })?;
                 stored.keep_frames = sweep.spec.keep_frames;
                 crate::dataset::write_json(&file, &stored)?;
             }
@@ -571,12 +565,20 @@ fn kind_of(world: &Path) -> String {
 /// sweep.json, with its worlds resolved against the sweep's folder (sweeps written before
 /// they were stored relative hold absolute paths, which stay as they are).
 fn read_spec(file: &Path) -> Result<SweepSpec> {
+    Ok(resolve_stored_worlds(file, read_stored_spec(file)?))
+}
+
+/// sweep.json as it is stored (worlds relative to its folder).
+fn read_stored_spec(file: &Path) -> Result<SweepSpec> {
     let bytes = std::fs::read(file).map_err(|e| SimError::io("cannot read", file, e))?;
-    let mut spec: SweepSpec =
-        serde_json::from_slice(&bytes).map_err(|source| SimError::BadJson {
-            path: file.to_path_buf(),
-            source,
-        })?;
+    serde_json::from_slice(&bytes).map_err(|source| SimError::BadJson {
+        path: file.to_path_buf(),
+        source,
+    })
+}
+
+/// A stored spec's relative worlds resolved against the folder of its `file`.
+fn resolve_stored_worlds(file: &Path, mut spec: SweepSpec) -> SweepSpec {
     let folder = file.parent().unwrap_or(Path::new("."));
     for world in &mut spec.worlds {
         if world.is_relative() {
@@ -584,7 +586,7 @@ fn read_spec(file: &Path) -> Result<SweepSpec> {
             *world = std::fs::canonicalize(&joined).unwrap_or(joined);
         }
     }
-    Ok(spec)
+    spec
 }
 
 /// `path` relative to the folder `base` (both absolute, without `.` or `..`): up from `base`
