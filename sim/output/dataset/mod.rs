@@ -113,18 +113,65 @@ impl CameraFile {
     }
 }
 
+/// One kind of per-frame image: the folder its PNGs go in and the TUM list that names them.
+/// The writer, the reader and [`remove_frames`] take every file name from these constants, so
+/// a renamed file cannot leave one of them behind.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ImageFiles {
+    /// The folder of PNGs, relative to the dataset.
+    pub folder: &'static str,
+    /// The TUM list of `timestamp folder/NNNNNN.png` lines.
+    pub list: &'static str,
+}
+
+impl ImageFiles {
+    /// A frame's image, relative to the dataset (what the lists and transforms.json hold).
+    pub fn entry(&self, file: &str) -> String {
+        format!("{}/{file}", self.folder)
+    }
+}
+
+/// Colour images (8-bit RGB PNGs).
+pub(crate) const RGB: ImageFiles = ImageFiles {
+    folder: "rgb",
+    list: "rgb.txt",
+};
+/// Depth maps (16-bit PNGs in `DEPTH_SCALE` units).
+pub(crate) const DEPTH: ImageFiles = ImageFiles {
+    folder: "depth",
+    list: "depth.txt",
+};
+/// Instance masks (16-bit ids of labels.json's instances).
+pub(crate) const INSTANCE: ImageFiles = ImageFiles {
+    folder: "instance",
+    list: "instance.txt",
+};
+/// Semantic masks (16-bit ids of labels.json's classes).
+pub(crate) const SEMANTIC: ImageFiles = ImageFiles {
+    folder: "semantic",
+    list: "semantic.txt",
+};
+/// The camera poses, TUM format.
+pub(crate) const GROUNDTRUTH: &str = "groundtruth.txt";
+/// nerfstudio's frame list.
+pub(crate) const TRANSFORMS: &str = "transforms.json";
+/// The intrinsics ([`CameraFile`]).
+pub(crate) const CAMERA: &str = "camera.json";
+/// The instances and classes the masks' ids refer to.
+pub(crate) const LABELS: &str = "labels.json";
+
 /// The files of a dataset that hold or name its images: the image folders, their TUM lists
 /// and transforms.json.
 pub const FRAME_FILES: [&str; 9] = [
-    "rgb",
-    "depth",
-    "instance",
-    "semantic",
-    "rgb.txt",
-    "depth.txt",
-    "instance.txt",
-    "semantic.txt",
-    "transforms.json",
+    RGB.folder,
+    DEPTH.folder,
+    INSTANCE.folder,
+    SEMANTIC.folder,
+    RGB.list,
+    DEPTH.list,
+    INSTANCE.list,
+    SEMANTIC.list,
+    TRANSFORMS,
 ];
 
 /// Removes a finished episode's images and every list that names them (`FRAME_FILES`),

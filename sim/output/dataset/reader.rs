@@ -2,7 +2,10 @@
 //! dataset written with masks, its labels and each frame's instance and semantic masks
 //! (datasets written before masks existed read as before, without them).
 
-use super::{read_depth_png, read_mask_png, read_rgb_png, CameraFile};
+use super::{
+    read_depth_png, read_mask_png, read_rgb_png, CameraFile, CAMERA, DEPTH, GROUNDTRUTH, INSTANCE,
+    LABELS, RGB, SEMANTIC,
+};
 use crate::camera::RgbdFrame;
 use crate::error::{Result, SimError};
 use crate::labels::Labels;
@@ -42,8 +45,8 @@ pub struct Dataset {
 impl Dataset {
     /// Opens a folder written by [`super::DatasetWriter`] (or any TUM folder with camera.json).
     pub fn open(dir: &Path) -> Result<Self> {
-        let camera = CameraFile::read(&dir.join("camera.json"))?;
-        if !dir.join("rgb.txt").exists() && dir.join("metrics.json").exists() {
+        let camera = CameraFile::read(&dir.join(CAMERA))?;
+        if !dir.join(RGB.list).exists() && dir.join("metrics.json").exists() {
             return Err(SimError::BadDataset {
                 path: dir.to_owned(),
                 detail: "an episode folder without its images (no rgb.txt): a sweep run with \
@@ -52,7 +55,7 @@ impl Dataset {
                     .into(),
             });
         }
-        let labels_path = dir.join("labels.json");
+        let labels_path = dir.join(LABELS);
         let labels: Option<Labels> = if labels_path.exists() {
             let text = std::fs::read_to_string(&labels_path)
                 .map_err(|e| SimError::io("cannot read", &labels_path, e))?;
@@ -65,22 +68,22 @@ impl Dataset {
         } else {
             None
         };
-        let mut names = vec!["rgb.txt", "depth.txt"];
+        let mut kinds = vec![RGB, DEPTH];
         if labels.is_some() {
-            names.extend(["instance.txt", "semantic.txt"]);
+            kinds.extend([INSTANCE, SEMANTIC]);
         }
-        let mut lists = names
+        let mut lists = kinds
             .iter()
-            .map(|name| read_list(&dir.join(name), 1))
+            .map(|kind| read_list(&dir.join(kind.list), 1))
             .collect::<Result<Vec<_>>>()?;
-        let mut poses = read_trajectory(&dir.join("groundtruth.txt"))?;
+        let mut poses = read_trajectory(&dir.join(GROUNDTRUTH))?;
         let counts: Vec<usize> = lists.iter().map(Vec::len).chain([poses.len()]).collect();
         let least = counts.iter().copied().min().unwrap_or(0);
         let most = counts.iter().copied().max().unwrap_or(0);
         let described = || {
-            names
+            kinds
                 .iter()
-                .map(|n| n.trim_end_matches(".txt"))
+                .map(|kind| kind.folder)
                 .chain(["pose"])
                 .zip(&counts)
                 .map(|(name, count)| format!("{count} {name}"))

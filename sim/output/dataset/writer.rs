@@ -18,7 +18,10 @@
 //! `place`.
 
 use super::place::{files_under, Places};
-use super::{write_depth_png, write_mask_png, write_rgb_png, CameraFile, DEPTH_SCALE};
+use super::{
+    write_depth_png, write_mask_png, write_rgb_png, CameraFile, CAMERA, DEPTH, DEPTH_SCALE,
+    GROUNDTRUTH, INSTANCE, LABELS, RGB, SEMANTIC, TRANSFORMS,
+};
 use crate::camera::RgbdFrame;
 use crate::error::{Result, SimError};
 use crate::labels::Labels;
@@ -163,16 +166,16 @@ impl DatasetWriter {
         if staging.exists() {
             fs::remove_dir_all(&staging).map_err(|e| SimError::io("cannot remove", &staging, e))?;
         }
-        for sub in ["rgb", "depth"] {
+        for sub in [RGB.folder, DEPTH.folder] {
             let path = staging.join(sub);
             fs::create_dir_all(&path).map_err(|e| SimError::io("cannot create", &path, e))?;
         }
         let open = |name: &str, header: &str| open_list(&staging, name, header);
         Ok(DatasetWriter {
-            rgb_txt: open("rgb.txt", "# color images\n# file: splatloop\n# timestamp filename\n")?,
-            depth_txt: open("depth.txt", "# depth maps\n# file: splatloop\n# timestamp filename\n")?,
+            rgb_txt: open(RGB.list, "# color images\n# file: splatloop\n# timestamp filename\n")?,
+            depth_txt: open(DEPTH.list, "# depth maps\n# file: splatloop\n# timestamp filename\n")?,
             groundtruth_txt: open(
-                "groundtruth.txt",
+                GROUNDTRUTH,
                 "# ground truth trajectory (camera-to-world, OpenCV optical frame)\n# file: splatloop\n# timestamp tx ty tz qx qy qz qw\n",
             )?,
             dir: staging,
@@ -200,21 +203,21 @@ impl DatasetWriter {
                 detail: "a dataset's labels are written once, before its first frame".into(),
             });
         }
-        for sub in ["instance", "semantic"] {
+        for sub in [INSTANCE.folder, SEMANTIC.folder] {
             let path = self.dir.join(sub);
             fs::create_dir_all(&path).map_err(|e| SimError::io("cannot create", &path, e))?;
         }
-        write_json(&self.dir.join("labels.json"), labels.as_ref())?;
+        write_json(&self.dir.join(LABELS), labels.as_ref())?;
         self.masks = Some(MaskFiles {
             labels,
             instance_txt: open_list(
                 &self.dir,
-                "instance.txt",
+                INSTANCE.list,
                 "# instance masks (16-bit ids of labels.json's instances, 0 = nothing)\n# file: splatloop\n# timestamp filename\n",
             )?,
             semantic_txt: open_list(
                 &self.dir,
-                "semantic.txt",
+                SEMANTIC.list,
                 "# semantic masks (16-bit ids of labels.json's classes, 0 = nothing)\n# file: splatloop\n# timestamp filename\n",
             )?,
         });
@@ -264,7 +267,7 @@ impl DatasetWriter {
         match &self.camera {
             None => {
                 let camera = CameraFile::new(&k, self.max_range);
-                write_json(&self.dir.join("camera.json"), &camera)?;
+                write_json(&self.dir.join(CAMERA), &camera)?;
                 self.camera = Some(camera);
             }
             Some(c) if c.intrinsics() != k => {
@@ -276,13 +279,13 @@ impl DatasetWriter {
             Some(_) => {}
         }
         let name = format!("{:06}.png", self.frames);
-        let rgb_rel = format!("rgb/{name}");
-        let depth_rel = format!("depth/{name}");
+        let rgb_rel = RGB.entry(&name);
+        let depth_rel = DEPTH.entry(&name);
         self.check_fault(&self.dir.join(&rgb_rel))?;
         let masks = match (&self.masks, frame.instance.is_empty()) {
             (Some(masks), false) if frame.instance.len() == k.pixel_count() => Some((
-                format!("instance/{name}"),
-                format!("semantic/{name}"),
+                INSTANCE.entry(&name),
+                SEMANTIC.entry(&name),
                 masks.labels.semantic(&frame.instance),
             )),
             (Some(_), false) => {
@@ -336,23 +339,23 @@ impl DatasetWriter {
         let pose = &frame.camera.world_from_camera;
         let (t, q) = (pose.translation.vector, pose.rotation);
         let mut lines = vec![
-            (&mut self.rgb_txt, format!("{stamp} {rgb_rel}\n"), "rgb.txt"),
+            (&mut self.rgb_txt, format!("{stamp} {rgb_rel}\n"), RGB.list),
             (
                 &mut self.depth_txt,
                 format!("{stamp} {depth_rel}\n"),
-                "depth.txt",
+                DEPTH.list,
             ),
         ];
         if let (Some(files), Some((instance_rel, semantic_rel, _))) = (&mut self.masks, &masks) {
             lines.push((
                 &mut files.instance_txt,
                 format!("{stamp} {instance_rel}\n"),
-                "instance.txt",
+                INSTANCE.list,
             ));
             lines.push((
                 &mut files.semantic_txt,
                 format!("{stamp} {semantic_rel}\n"),
-                "semantic.txt",
+                SEMANTIC.list,
             ));
         }
         lines.push((
@@ -361,7 +364,7 @@ impl DatasetWriter {
                 "{stamp} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9} {:.9}\n",
                 t.x, t.y, t.z, q.i, q.j, q.k, q.w
             ),
-            "groundtruth.txt",
+            GROUNDTRUTH,
         ));
         for (file, line, name) in lines {
             file.write_all(line.as_bytes())
@@ -382,7 +385,7 @@ impl DatasetWriter {
     /// Appends a frame to transforms.json in place: the file is rewritten from where its tail
     /// began, so it is whole JSON after every frame.
     fn append_transform(&mut self, entry: &TransformFrame) -> Result<()> {
-        let path = self.dir.join("transforms.json");
+        let path = self.dir.join(TRANSFORMS);
         let io = |e: std::io::Error| SimError::io("cannot write", &path, e);
         let mut text = String::new();
         if self.transforms.is_none() {
