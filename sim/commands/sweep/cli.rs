@@ -214,9 +214,9 @@ pub fn sweep(args: SweepArgs) -> Result<Option<u8>> {
     );
     let report = sweep::run_sweep(&sweep, &backend, &binary, &stop, &mut |p| {
         bar.update((p.complete + p.failed) as u64, || {
-            let eta = p
-                .eta_seconds
-                .map_or(String::new(), |s| format!(", eta {:.0} s", s));
+            let eta = p.eta_seconds.map_or(String::new(), |s| {
+                format!(", about {} left", sweep::pace::human_duration(s))
+            });
             format!(
                 "{}/{} complete, {} running, {} failed{eta}",
                 p.complete, p.total, p.running, p.failed

@@ -4,6 +4,7 @@
 //! (`ray_driver.py`). Either way a finished episode is settled here: complete, or failed with
 //! its error recorded beside its folder, and the others go on.
 
+use super::pace::Pace;
 use super::spec::{Episode, EpisodeState, Sweep};
 use crate::episode::StopRequest;
 use crate::error::{Result, SimError};
@@ -52,7 +53,8 @@ pub struct SweepProgress {
     pub running: usize,
     /// Failed in this run.
     pub failed: usize,
-    /// Wall seconds to the end, from this run's pace (none before an episode has finished).
+    /// Wall seconds to the end, from this run's finished episodes (`pace`; none before one
+    /// has finished).
     pub eta_seconds: Option<f64>,
 }
 
@@ -84,7 +86,8 @@ struct Task {
 
 /// What a backend reports about a task.
 enum Event {
-    Started,
+    /// The episode's index.
+    Started(usize),
     /// The exit code (none when killed by a signal), or why the process could not run.
     Finished(usize, std::result::Result<Option<i32>, String>),
 }
@@ -128,6 +131,7 @@ pub fn run_sweep(
     }
     progress.complete = report.skipped;
     on_progress(&progress);
+    let mut pace = Pace::default();
     for (number, batch) in sweep.batches().into_iter().enumerate() {
         if stop.requested().is_some() {
             break;
@@ -164,9 +168,13 @@ pub fn run_sweep(
         }
         let mut on_event = |event: Event| -> Result<()> {
             match event {
-                Event::Started => progress.running += 1,
+                Event::Started(i) => {
+                    progress.running += 1;
+                    pace.started(i, started.elapsed().as_secs_f64());
+                }
                 Event::Finished(i, outcome) => {
                     progress.running = progress.running.saturating_sub(1);
+                    pace.finished(i, started.elapsed().as_secs_f64());
                     report.ran += 1;
                     match settle(sweep, i, outcome)? {
                         None => progress.complete += 1,
@@ -175,11 +183,12 @@ pub fn run_sweep(
                             progress.failed += 1;
                         }
                     }
-                    let left = progress.total - progress.complete - progress.failed;
-                    let pace = started.elapsed().as_secs_f64() / report.ran as f64;
-                    progress.eta_seconds = Some(pace * left as f64);
                 }
             }
+            let queued = progress
+                .total
+                .saturating_sub(progress.complete + progress.failed + progress.running);
+            progress.eta_seconds = pace.seconds_left(started.elapsed().as_secs_f64(), queued);
             on_progress(&progress);
             Ok(())
         };
@@ -448,7 +457,7 @@ fn execute_local(
                 }
                 let k = next.fetch_add(1, Ordering::Relaxed);
                 let Some(task) = tasks.get(k) else { break };
-                let _ = sender.send(Event::Started);
+                let _ = sender.send(Event::Started(task.index));
                 let outcome = match lock_episode(sweep, task.index) {
                     Ok(_lock) => run_child(task, stop),
                     Err(busy) => Err(busy.to_string()),
@@ -545,7 +554,7 @@ fn execute_ray(
             let words: Vec<&str> = line.splitn(3, ' ').collect();
             let index = words.get(1).and_then(|w| w.parse::<usize>().ok());
             let event = match (words.first().copied(), index) {
-                (Some("started"), Some(_)) => Event::Started,
+                (Some("started"), Some(i)) => Event::Started(i),
                 (Some("finished"), Some(i)) => {
                     let code = words.get(2).and_then(|w| w.trim().parse::<i32>().ok());
                     // Python reports a process killed by signal N as -N.

@@ -7,6 +7,7 @@
 //!   state on disk and their command lines.
 //! - `execute` — running a batch of episodes: locally N at a time, or as Ray tasks; the
 //!   bookkeeping of one finished episode (its log, its recorded failure) is shared.
+//! - `pace` — the time a running sweep has left, for its progress line.
 //! - `slurm` — the sbatch array script and its per-task command.
 //! - `results` — results.csv and summary.md from the episodes' metrics.json.
 //! - `charts` — summary.png and coverage_over_time.png.
@@ -14,6 +15,7 @@
 pub mod charts;
 pub mod cli;
 pub mod execute;
+pub mod pace;
 pub mod results;
 pub mod slurm;
 pub mod spec;
