@@ -389,3 +389,122 @@ fn episode_json_records_what_decides_its_numbers() {
         None => assert_eq!(commit, "unknown"),
     }
 }
+
+/// A scripted planner for the no-progress fixture: drives east from the spawn to x = 1.0 m
+/// (the ball's near side is 1.34 m east), turns its back on the ball, then plans standing
+/// still for ever, so the progress watch overrules it.
+struct TurnsItsBackThenStands {
+    phase: Phase,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Phase {
+    Approach,
+    TurnAround,
+    Stand,
+}
+
+impl autonomy::explore::Planner for TurnsItsBackThenStands {
+    fn name(&self) -> &str {
+        "turns-its-back-then-stands"
+    }
+
+    fn settings(&self) -> serde_json::Value {
+        serde_json::Value::Null
+    }
+
+    fn plan(
+        &mut self,
+        _map: &autonomy::map::GaussianMap,
+        start: autonomy::drive::Pose2,
+    ) -> autonomy::explore::Decision {
+        use autonomy::drive::{advance, wrap_angle, UnicycleCommand};
+        const STOP_AT: f64 = 1.0;
+        if self.phase == Phase::Approach && start.x >= STOP_AT - 0.02 {
+            self.phase = Phase::TurnAround;
+        }
+        let facing_west = wrap_angle(start.theta - std::f64::consts::PI).abs() < 0.05;
+        if self.phase == Phase::TurnAround && facing_west {
+            self.phase = Phase::Stand;
+        }
+        let command = match self.phase {
+            // At most the rest of the way in the 1 s before the next plan.
+            Phase::Approach => UnicycleCommand {
+                v: (STOP_AT - start.x).clamp(0.0, 0.3),
+                w: -wrap_angle(start.theta),
+            },
+            Phase::TurnAround => UnicycleCommand {
+                v: 0.0,
+                w: wrap_angle(std::f64::consts::PI - start.theta).clamp(-0.6, 0.6),
+            },
+            Phase::Stand => UnicycleCommand { v: 0.0, w: 0.0 },
+        };
+        let commands = vec![command; 10];
+        let mut states = vec![start];
+        for u in &commands {
+            let last = *states.last().expect("the start");
+            states.push(advance(&last, u, 0.1));
+        }
+        autonomy::explore::Decision::Go(autonomy::explore::Plan::unsearched(commands, 0.1, states))
+    }
+}
+
+#[test]
+fn a_robot_that_makes_no_progress_backs_off_the_way_it_came_not_into_what_is_behind_it() {
+    // robustness-depth-noise, apartment_02, RT-GuIDE spawn 3: a back-off had turned the robot's
+    // back on ball_16; ten seconds without progress later the watch's back-off, blind, turned
+    // half round and drove 0.15 m into the ball (449 collision steps). Here the ball stands
+    // 0.6 m behind a robot that drove up to it, turned away and stands still: driving the
+    // way it came is the way out; half round and forward is into the ball.
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut config = config("", PlannerKind::RtGuide, 30.0, dir.path().join("behind"));
+    config.world = fixture("ball_behind.xml");
+    config.test_views = 0;
+    let mut episode = splatloop::episode::Episode::with_planner(&config, |_| {
+        Ok(Box::new(TurnsItsBackThenStands {
+            phase: Phase::Approach,
+        }))
+    })
+    .expect("episode");
+    let (mut turned_at, mut overruled_from) = (None, None);
+    // A step thinks first, then drives: where it was overruled is where the last one ended.
+    let mut before = autonomy::drive::Pose2 {
+        x: 0.0,
+        y: 0.0,
+        theta: 0.0,
+    };
+    let last = loop {
+        let report = episode.step().expect("step");
+        if matches!(report.think, Some(splatloop::episode::Think::Overruled)) {
+            overruled_from.get_or_insert(before);
+        }
+        before = report.pose;
+        if turned_at.is_none() && report.pose.theta.cos() < -0.99 {
+            turned_at = Some(report.pose);
+        }
+        if report.ended.is_some() {
+            break report.pose;
+        }
+    };
+    let metrics = episode.finish().expect("finish");
+    eprintln!("{metrics:?}");
+    let turned_at = turned_at.expect("the script turned its back on the ball");
+    assert!(
+        (turned_at.x - 1.0).abs() < 0.1,
+        "turned at x = {:.2}",
+        turned_at.x
+    );
+    let overruled_from = overruled_from.expect("the watch overruled a robot standing still");
+    assert!(
+        overruled_from.distance([turned_at.x, turned_at.y]) < 0.05,
+        "overruled at {overruled_from:?}"
+    );
+    assert_eq!(metrics.plan_failures.get("NoProgress").copied(), Some(1));
+    assert_eq!(metrics.collision_steps, 0, "the back-off touched the ball");
+    assert_eq!(metrics.retraces, 1);
+    // It drove back along its trail, the retrace's metre, away from the ball.
+    assert!(
+        last.x < turned_at.x - 0.8 && last.y.abs() < 0.1,
+        "ended at {last:?}"
+    );
+}

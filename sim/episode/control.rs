@@ -43,7 +43,7 @@ pub struct Controller {
     /// Recovery manoeuvres started.
     pub recovery_events: usize,
     /// Of those, retraces: drives back along the trail after a look around did not unblock
-    /// the plans.
+    /// the plans, or after no progress.
     pub retraces: usize,
     /// Decisions dropped because their think outlasted the lead they were planned for while
     /// the robot was moving: they start from a pose the robot is not at.
@@ -236,28 +236,69 @@ impl Controller {
         let recovered = failure.is_some();
         if let Some(failure) = failure {
             self.recovery_events += 1;
-            let (name, kind, away) = match &failure {
-                Some(f @ PlanFailure::StartInCollision { away }) => {
-                    (f.kind(), Recovery::BackOff, Some(*away))
-                }
-                Some(f) => (f.kind(), f.recovery(), None),
-                None => ("NoProgress", Recovery::BackOff, None),
-            };
-            tracing::info!(
-                "t = {time:.1} s: {} -> recovery {kind:?}",
-                failure
-                    .as_ref()
-                    .map_or("no progress for 10 s".to_owned(), PlanFailure::to_string)
-            );
+            let name = failure.as_ref().map_or("NoProgress", PlanFailure::kind);
             *self.failures.entry(name.to_owned()).or_insert(0) += 1;
-            let schedule = match self.blocked_again(failure.as_ref(), start_pose, start) {
-                Some(retrace) => retrace,
-                None => Schedule::recovery(kind, start, start_pose.theta, away, &self.limits),
+            let schedule = match &failure {
+                Some(f) => {
+                    tracing::info!("t = {time:.1} s: {f} -> recovery {:?}", f.recovery());
+                    match self.blocked_again(Some(f), start_pose, start) {
+                        Some(retrace) => retrace,
+                        None => {
+                            let away = match f {
+                                PlanFailure::StartInCollision { away } => Some(*away),
+                                _ => None,
+                            };
+                            let limits = &self.limits;
+                            Schedule::recovery(f.recovery(), start, start_pose.theta, away, limits)
+                        }
+                    }
+                }
+                None => self.back_the_way_it_came(time, start_pose, start),
             };
             self.pending = Some((schedule, start_pose));
         }
         self.progress.update(time, pose, recovered);
         self.watch_stuck(time, pose, recovered)
+    }
+
+    /// The watch's recovery for a robot that made no progress: a retrace of its trail, the
+    /// one way out known to be free whatever the map says (the body has just been there), or
+    /// a look around where the trail is too short to retrace (near where the episode began).
+    ///
+    /// It used to turn half round and drive off a little, blind: what the robot had just
+    /// turned its back on is straight ahead then (robustness-depth-noise, apartment_02,
+    /// RT-GuIDE spawn 3: a collision back-off turned the robot away from ball_16, the plans
+    /// after it only turned, and ten seconds on the watch's back-off drove into the ball;
+    /// tests/fixtures/ball_behind.xml builds that). The map cannot choose a heading instead:
+    /// behind the camera it holds only what was seen before, and with a perturbed sensor it
+    /// is what misled the plans in the first place.
+    fn back_the_way_it_came(&mut self, time: f64, start_pose: Pose2, start: f64) -> Schedule {
+        let retrace = retrace(
+            &self.trail,
+            start_pose,
+            start,
+            RETRACE_DISTANCE,
+            &self.limits,
+        );
+        match retrace {
+            Some(schedule) => {
+                tracing::info!(
+                    "t = {time:.1} s: no progress for 10 s -> retracing {RETRACE_DISTANCE} m of \
+                     the way the robot came"
+                );
+                self.looked_at = None;
+                self.retraces += 1;
+                schedule
+            }
+            None => {
+                tracing::info!(
+                    "t = {time:.1} s: no progress for 10 s and no trail to retrace -> recovery \
+                     TurnInPlace"
+                );
+                let (heading, limits) = (start_pose.theta, &self.limits);
+                Schedule::recovery(Recovery::TurnInPlace, start, heading, None, limits)
+            }
+        }
     }
 
     /// A plan blocked where a look around already failed to unblock it gets a retrace: the
@@ -588,6 +629,48 @@ mod tests {
         let further = run(&back, end);
         assert_eq!(c.retraces, 2);
         assert!(further.x < end.x - 0.5, "{end:?} -> {further:?}");
+    }
+
+    /// The watch's "no progress" never drives blind: with a trail it retraces it (the way the
+    /// body came, free whatever the map says), and with none (still near where the episode
+    /// began) it looks around in place. It used to turn half round and drive 0.15 m, into
+    /// whatever the robot had turned its back on.
+    #[test]
+    fn no_progress_retraces_the_trail_or_looks_around_but_never_drives_blind() {
+        let origin = Pose2::default();
+        let run = |schedule: &Schedule, from: Pose2| {
+            schedule.predict(from, schedule.start, schedule.end() - schedule.start)
+        };
+        // Standing where it began: no trail, a look around.
+        let mut c = Controller::new(origin, Latency::None, DriveLimits::default());
+        c.take(None, 10.0, origin, origin, think(0.0, 0.0), 0.0);
+        let (look, _) = c.pending.clone().expect("a look around");
+        assert!(look.commands.iter().all(|u| u.v == 0.0 && u.w != 0.0));
+        assert_eq!((c.retraces, c.failures.get("NoProgress")), (0, Some(&1)));
+        // Drove 2 m east, then turned its back on what lies ahead (east): the way out is west,
+        // along the trail, never east.
+        let mut pose = origin;
+        for _ in 0..200 {
+            pose = autonomy::drive::advance(&pose, &FORWARD, 0.02);
+            c.moved(pose);
+        }
+        let turned = Pose2 {
+            theta: std::f64::consts::PI,
+            ..pose
+        };
+        c.take(None, 20.0, turned, turned, think(0.0, 0.0), 0.0);
+        assert_eq!(c.retraces, 1);
+        let (back, _) = c.pending.clone().expect("a retrace");
+        let mut p = turned;
+        for k in 0..((back.end() - back.start) / 0.02).round() as usize {
+            p = autonomy::drive::advance(&p, &back.at(back.start + (k as f64 + 0.5) * 0.02), 0.02);
+            assert!(p.x <= turned.x + 1e-9, "drove east to {p:?}");
+        }
+        let end = run(&back, turned);
+        assert!(
+            (end.x - (turned.x - RETRACE_DISTANCE)).abs() < 0.03 && end.y.abs() < 0.03,
+            "{end:?}"
+        );
     }
 
     /// A planner whose own grid boxes in a place the robot just drove to (AG-SLAM under a

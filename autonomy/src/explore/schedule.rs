@@ -50,7 +50,9 @@ impl Schedule {
 
     /// The recovery manoeuvres: a look around (turn in place) or a back-off. The unicycle
     /// cannot reverse, so backing off turns in place to `away` (half round when not known)
-    /// and drives a little that way.
+    /// and drives a little that way, unchecked: give it a heading the map says is clear
+    /// (`executor::escape_heading`). Half round is blind, into whatever the robot last turned
+    /// its back on; the host retraces its trail instead where it has no heading.
     pub fn recovery(
         kind: Recovery,
         start: f64,
