@@ -9,7 +9,7 @@ use autonomy::drive::wrap_angle;
 use autonomy::explore::retrace::{retrace, Trail, RETRACE_DISTANCE};
 use autonomy::explore::schedule::{self, Schedule};
 use autonomy::explore::watch::{ProgressWatch, StuckWatch};
-use autonomy::explore::{Decision, PlanFailure};
+use autonomy::explore::{Decision, PlanFailure, Recovery};
 use std::collections::{BTreeMap, VecDeque};
 
 /// How far, metres, the robot may have moved on from a late plan's start for the plan to be
@@ -263,8 +263,7 @@ impl Controller {
 
     /// The watch's recovery for a robot that made no progress: a retrace of its trail, the
     /// one way out known to be free whatever the map says (the body has just been there), or
-    /// a full turn in place where the trail is too short to retrace (near where the episode
-    /// began).
+    /// a look around where the trail is too short to retrace (near where the episode began).
     ///
     /// It used to turn half round and drive off a little, blind: what the robot had just
     /// turned its back on is straight ahead then (robustness-depth-noise, apartment_02,
@@ -293,10 +292,11 @@ impl Controller {
             }
             None => {
                 tracing::info!(
-                    "t = {time:.1} s: no progress for 10 s and no trail to retrace; turning a \
-                     full circle"
+                    "t = {time:.1} s: no progress for 10 s and no trail to retrace -> recovery \
+                     TurnInPlace"
                 );
-                Schedule::full_turn(start, &self.limits)
+                let (heading, limits) = (start_pose.theta, &self.limits);
+                Schedule::recovery(Recovery::TurnInPlace, start, heading, None, limits)
             }
         }
     }
@@ -304,8 +304,7 @@ impl Controller {
     /// A plan blocked where a look around already failed to unblock it gets a retrace: the
     /// robot drives back along its trail, through space its body has just occupied, until
     /// the blocked place is in the camera's view (`autonomy::explore::retrace` says why a
-    /// look around cannot cure it); with no trail yet (at the spawn), a full turn in place
-    /// (`Schedule::full_turn` says why). `None` (a look around, remembered) otherwise.
+    /// look around cannot cure it). `None` (a look around, remembered) otherwise.
     ///
     /// A planner boxed in by its own grid counts as blocked: AG-SLAM takes a table top inside
     /// the papers' 1.3 m band for a wall, yet its executor drives the 0.5 m robot under the
@@ -337,22 +336,13 @@ impl Controller {
             self.looked_at = Some(start_pose);
             return None;
         }
-        let Some(schedule) = retrace(
+        let schedule = retrace(
             &self.trail,
             start_pose,
             start,
             RETRACE_DISTANCE,
             &self.limits,
-        ) else {
-            tracing::info!(
-                "t = {start:.1} s: blocked again after a look around at ({:.2}, {:.2}) with no \
-                 trail to retrace (near where the episode began); turning a full circle",
-                start_pose.x,
-                start_pose.y
-            );
-            self.looked_at = None;
-            return Some(Schedule::full_turn(start, &self.limits));
-        };
+        )?;
         tracing::info!(
             "t = {start:.1} s: blocked again after a look around at ({:.2}, {:.2}); retracing \
              {RETRACE_DISTANCE} m of the way the robot came",
@@ -641,31 +631,21 @@ mod tests {
         assert!(further.x < end.x - 0.5, "{end:?} -> {further:?}");
     }
 
-    /// Turned in place by `schedule` from `from`: the whole angle, unwrapped.
-    fn turned(schedule: &Schedule) -> f64 {
-        assert!(schedule.commands.iter().all(|u| u.v == 0.0));
-        schedule
-            .commands
-            .iter()
-            .map(|u| u.w * schedule.period)
-            .sum()
-    }
-
     /// The watch's "no progress" never drives blind: with a trail it retraces it (the way the
     /// body came, free whatever the map says), and with none (still near where the episode
-    /// began) it turns a full circle in place. It used to turn half round and drive 0.15 m,
-    /// into whatever the robot had turned its back on.
+    /// began) it looks around in place. It used to turn half round and drive 0.15 m, into
+    /// whatever the robot had turned its back on.
     #[test]
-    fn no_progress_retraces_the_trail_or_turns_a_full_circle_but_never_drives_blind() {
+    fn no_progress_retraces_the_trail_or_looks_around_but_never_drives_blind() {
         let origin = Pose2::default();
         let run = |schedule: &Schedule, from: Pose2| {
             schedule.predict(from, schedule.start, schedule.end() - schedule.start)
         };
-        // Standing where it began: no trail, a full turn.
+        // Standing where it began: no trail, a look around.
         let mut c = Controller::new(origin, Latency::None, DriveLimits::default());
         c.take(None, 10.0, origin, origin, think(0.0, 0.0), 0.0);
-        let (look, _) = c.pending.clone().expect("a turn");
-        assert!(turned(&look) >= std::f64::consts::TAU - 1e-9);
+        let (look, _) = c.pending.clone().expect("a look around");
+        assert!(look.commands.iter().all(|u| u.v == 0.0 && u.w != 0.0));
         assert_eq!((c.retraces, c.failures.get("NoProgress")), (0, Some(&1)));
         // Drove 2 m east, then turned its back on what lies ahead (east): the way out is west,
         // along the trail, never east.
@@ -691,37 +671,6 @@ mod tests {
             (end.x - (turned.x - RETRACE_DISTANCE)).abs() < 0.03 && end.y.abs() < 0.03,
             "{end:?}"
         );
-    }
-
-    /// Blocked twice where it looked around, at its spawn, with no trail to retrace: the
-    /// second answer is a full circle, not another 155-degree look around. Between looks
-    /// around the plans turn the robot back toward its target, so looks around alone swept
-    /// the same half of the room for ever (robustness-as-is, warehouse_02, RT-GuIDE spawn 3).
-    #[test]
-    fn blocked_again_at_the_spawn_turns_a_full_circle() {
-        let origin = Pose2::default();
-        let mut c = Controller::new(origin, Latency::None, DriveLimits::default());
-        let blocked = || Some(Decision::Fail(PlanFailure::NoCandidateClearOfUnseen));
-        c.take(blocked(), 2.0, origin, origin, think(0.0, 0.0), 0.0);
-        let (look, _) = c.pending.clone().expect("a look around");
-        let first = turned(&look);
-        assert!(first > 0.0 && first < std::f64::consts::PI, "{first}");
-        c.take(blocked(), 8.0, origin, origin, think(0.0, 0.0), 0.0);
-        let (circle, _) = c.pending.clone().expect("a full turn");
-        assert!(turned(&circle) >= std::f64::consts::TAU - 1e-9);
-        assert!(circle.holding_at(circle.start + 1.0));
-        assert_eq!((c.retraces, c.recovery_events), (0, 2));
-        // Blocked a third time there: a look around again first, then a full circle.
-        c.take(
-            blocked(),
-            circle.end(),
-            origin,
-            origin,
-            think(0.0, 0.0),
-            0.0,
-        );
-        let (look, _) = c.pending.clone().expect("a look around");
-        assert!(turned(&look) < std::f64::consts::PI);
     }
 
     /// A planner whose own grid boxes in a place the robot just drove to (AG-SLAM under a

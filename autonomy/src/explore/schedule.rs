@@ -96,23 +96,6 @@ impl Schedule {
         }
     }
 
-    /// A whole turn in place, at least 360 degrees: what a robot with no trail to retrace (at
-    /// its spawn) does when blocked again where it looked around. A look around turns 155
-    /// degrees, and between two of them the plans turn the robot back toward its target, so
-    /// the robot can sweep the same half of the room for ever and never see the other,
-    /// where the floor its candidates must cross lies unseen (robustness-as-is, warehouse_02,
-    /// RT-GuIDE spawn 3: stuck at the spawn after 8 looks around in 47 s).
-    pub fn full_turn(start: f64, limits: &DriveLimits) -> Self {
-        let rate = limits.max_turn;
-        let ticks = (std::f64::consts::TAU / (rate * RECOVERY_TICK)).ceil() as usize;
-        Schedule {
-            start,
-            period: RECOVERY_TICK,
-            commands: vec![UnicycleCommand { v: 0.0, w: rate }; ticks],
-            commit: f64::INFINITY,
-        }
-    }
-
     /// When the last command ends.
     pub fn end(&self) -> f64 {
         self.start + self.period * self.commands.len() as f64
