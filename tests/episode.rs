@@ -467,12 +467,9 @@ fn a_robot_that_makes_no_progress_backs_off_the_way_it_came_not_into_what_is_beh
     })
     .expect("episode");
     let (mut turned_at, mut overruled_from) = (None, None);
-    // A step thinks first, then drives: where it was overruled is where the last one ended.
-    let mut before = autonomy::drive::Pose2 {
-        x: 0.0,
-        y: 0.0,
-        theta: 0.0,
-    };
+    // A step thinks first, then drives: where it was overruled is where the last one ended
+    // (the first from the spawn, the origin).
+    let mut before = autonomy::drive::Pose2::default();
     let last = loop {
         let report = episode.step().expect("step");
         if matches!(report.think, Some(splatloop::episode::Think::Overruled)) {

@@ -239,26 +239,47 @@ impl Controller {
             let name = failure.as_ref().map_or("NoProgress", PlanFailure::kind);
             *self.failures.entry(name.to_owned()).or_insert(0) += 1;
             let schedule = match &failure {
-                Some(f) => {
-                    tracing::info!("t = {time:.1} s: {f} -> recovery {:?}", f.recovery());
-                    match self.blocked_again(Some(f), start_pose, start) {
-                        Some(retrace) => retrace,
-                        None => {
-                            let away = match f {
-                                PlanFailure::StartInCollision { away } => Some(*away),
-                                _ => None,
-                            };
-                            let limits = &self.limits;
-                            Schedule::recovery(f.recovery(), start, start_pose.theta, away, limits)
-                        }
-                    }
-                }
+                Some(f) => self.recover_from(f, time, start_pose, start),
                 None => self.back_the_way_it_came(time, start_pose, start),
             };
             self.pending = Some((schedule, start_pose));
         }
         self.progress.update(time, pose, recovered);
         self.watch_stuck(time, pose, recovered)
+    }
+
+    /// The recovery for a planner's failure: a retrace when blocked again where it looked
+    /// around, else the failure's own manoeuvre (a back-off toward the start check's heading).
+    fn recover_from(
+        &mut self,
+        failure: &PlanFailure,
+        time: f64,
+        start_pose: Pose2,
+        start: f64,
+    ) -> Schedule {
+        tracing::info!(
+            "t = {time:.1} s: {failure} -> recovery {:?}",
+            failure.recovery()
+        );
+        if let Some(retrace) = self.blocked_again(failure, start_pose, start) {
+            return retrace;
+        }
+        let away = match failure {
+            PlanFailure::StartInCollision { away } => Some(*away),
+            _ => None,
+        };
+        let (heading, limits) = (start_pose.theta, &self.limits);
+        Schedule::recovery(failure.recovery(), start, heading, away, limits)
+    }
+
+    /// A retrace of the trail from `start_pose`, counted, and the look around it answers
+    /// forgotten; `None` when the trail is too short.
+    fn retrace_trail(&mut self, start_pose: Pose2, start: f64) -> Option<Schedule> {
+        let limits = &self.limits;
+        let schedule = retrace(&self.trail, start_pose, start, RETRACE_DISTANCE, limits)?;
+        self.looked_at = None;
+        self.retraces += 1;
+        Some(schedule)
     }
 
     /// The watch's recovery for a robot that made no progress: a retrace of its trail, the
@@ -273,21 +294,12 @@ impl Controller {
     /// behind the camera it holds only what was seen before, and with a perturbed sensor it
     /// is what misled the plans in the first place.
     fn back_the_way_it_came(&mut self, time: f64, start_pose: Pose2, start: f64) -> Schedule {
-        let retrace = retrace(
-            &self.trail,
-            start_pose,
-            start,
-            RETRACE_DISTANCE,
-            &self.limits,
-        );
-        match retrace {
+        match self.retrace_trail(start_pose, start) {
             Some(schedule) => {
                 tracing::info!(
                     "t = {time:.1} s: no progress for 10 s -> retracing {RETRACE_DISTANCE} m of \
                      the way the robot came"
                 );
-                self.looked_at = None;
-                self.retraces += 1;
                 schedule
             }
             None => {
@@ -314,17 +326,15 @@ impl Controller {
     /// edge, and a retrace there undid its way out of a corridor.
     fn blocked_again(
         &mut self,
-        failure: Option<&PlanFailure>,
+        failure: &PlanFailure,
         start_pose: Pose2,
         start: f64,
     ) -> Option<Schedule> {
         let blocked = matches!(
             failure,
-            Some(
-                PlanFailure::NoCollisionFreeCandidate
-                    | PlanFailure::NoCandidateClearOfUnseen
-                    | PlanFailure::BoxedIn
-            )
+            PlanFailure::NoCollisionFreeCandidate
+                | PlanFailure::NoCandidateClearOfUnseen
+                | PlanFailure::BoxedIn
         );
         if !blocked {
             return None;
@@ -336,21 +346,13 @@ impl Controller {
             self.looked_at = Some(start_pose);
             return None;
         }
-        let schedule = retrace(
-            &self.trail,
-            start_pose,
-            start,
-            RETRACE_DISTANCE,
-            &self.limits,
-        )?;
+        let schedule = self.retrace_trail(start_pose, start)?;
         tracing::info!(
             "t = {start:.1} s: blocked again after a look around at ({:.2}, {:.2}); retracing \
              {RETRACE_DISTANCE} m of the way the robot came",
             start_pose.x,
             start_pose.y
         );
-        self.looked_at = None;
-        self.retraces += 1;
         Some(schedule)
     }
 
