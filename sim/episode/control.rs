@@ -32,6 +32,10 @@ pub struct Controller {
     stuck: StuckWatch,
     /// The way the robot came, for a retrace.
     trail: Trail,
+    /// Where the episode began, and whether the robot has since been further than
+    /// [`StuckWatch::ESCAPE`] from there: until it has, a plan blocked again gets a full turn.
+    spawn: Pose2,
+    left_spawn: bool,
     /// Where the last look around for a blocked plan (every primitive collides or passes
     /// near unseen space) began: blocked again there, the robot retraces its trail instead.
     looked_at: Option<Pose2>,
@@ -83,6 +87,8 @@ impl Controller {
             progress: ProgressWatch::new(pose),
             stuck: StuckWatch::new(pose),
             trail: Trail::new(pose),
+            spawn: pose,
+            left_spawn: false,
             looked_at: None,
             recent_plans: VecDeque::from([0.0]),
             failures: BTreeMap::new(),
@@ -146,6 +152,8 @@ impl Controller {
     /// Takes in the robot's pose after a physics step: the trail a retrace follows back.
     pub fn moved(&mut self, pose: Pose2) {
         self.trail.push(pose);
+        self.left_spawn =
+            self.left_spawn || pose.distance([self.spawn.x, self.spawn.y]) > StuckWatch::ESCAPE;
     }
 
     /// Whether the robot made no progress for a while: the planner is overruled by a back-off.
@@ -316,7 +324,9 @@ impl Controller {
     /// A plan blocked where a look around already failed to unblock it gets a retrace: the
     /// robot drives back along its trail, through space its body has just occupied, until
     /// the blocked place is in the camera's view (`autonomy::explore::retrace` says why a
-    /// look around cannot cure it). `None` (a look around, remembered) otherwise.
+    /// look around cannot cure it). A robot that has not yet left its spawn has no trail: it
+    /// turns a full circle instead (`Schedule::full_turn` says why), the only view of its
+    /// surroundings it has not had. `None` (a look around, remembered) otherwise.
     ///
     /// A planner boxed in by its own grid counts as blocked: AG-SLAM takes a table top inside
     /// the papers' 1.3 m band for a wall, yet its executor drives the 0.5 m robot under the
@@ -346,7 +356,19 @@ impl Controller {
             self.looked_at = Some(start_pose);
             return None;
         }
-        let schedule = self.retrace_trail(start_pose, start)?;
+        let Some(schedule) = self.retrace_trail(start_pose, start) else {
+            if self.left_spawn {
+                return None;
+            }
+            tracing::info!(
+                "t = {start:.1} s: blocked again after a look around at ({:.2}, {:.2}), at the \
+                 spawn with no trail to retrace; turning a full circle",
+                start_pose.x,
+                start_pose.y
+            );
+            self.looked_at = None;
+            return Some(Schedule::full_turn(start, &self.limits));
+        };
         tracing::info!(
             "t = {start:.1} s: blocked again after a look around at ({:.2}, {:.2}); retracing \
              {RETRACE_DISTANCE} m of the way the robot came",
@@ -673,6 +695,54 @@ mod tests {
             (end.x - (turned.x - RETRACE_DISTANCE)).abs() < 0.03 && end.y.abs() < 0.03,
             "{end:?}"
         );
+    }
+
+    /// Turned in place by `schedule`: the whole angle, unwrapped.
+    fn turned(schedule: &Schedule) -> f64 {
+        assert!(schedule.commands.iter().all(|u| u.v == 0.0));
+        let angle = |u: &UnicycleCommand| u.w * schedule.period;
+        schedule.commands.iter().map(angle).sum()
+    }
+
+    /// Blocked twice where it looked around, at its spawn, with no trail to retrace: the
+    /// second answer is a full circle, not another 155-degree look around. Between looks
+    /// around the plans turn the robot back toward its target, so looks around alone swept
+    /// the same sector for ever (robustness-as-is, warehouse_02, RT-GuIDE spawn 3). Once the
+    /// robot has left its spawn, a place without trail (back where it began, the loop
+    /// erased) keeps the look around: only the spawn is a place it has seen from one side.
+    #[test]
+    fn blocked_again_at_the_spawn_turns_a_full_circle() {
+        let origin = Pose2::default();
+        let blocked = || Some(Decision::Fail(PlanFailure::NoCandidateClearOfUnseen));
+        let mut c = Controller::new(origin, Latency::None, DriveLimits::default());
+        c.take(blocked(), 2.0, origin, origin, think(0.0, 0.0), 0.0);
+        let (look, _) = c.pending.clone().expect("a look around");
+        let first = turned(&look);
+        assert!(first > 0.0 && first < std::f64::consts::PI, "{first}");
+        c.take(blocked(), 8.0, origin, origin, think(0.0, 0.0), 0.0);
+        let (circle, _) = c.pending.clone().expect("a full turn");
+        assert!(turned(&circle) >= std::f64::consts::TAU - 1e-9);
+        assert!(circle.holding_at(circle.start + 1.0));
+        assert_eq!((c.retraces, c.recovery_events), (0, 2));
+        // Blocked a third time there: a look around again first, then a full circle.
+        let end = circle.end();
+        c.take(blocked(), end, origin, origin, think(0.0, 0.0), 0.0);
+        let (look, _) = c.pending.clone().expect("a look around");
+        assert!(turned(&look) < std::f64::consts::PI);
+
+        // Out 1 m east and back to the spawn: the trail's loop is erased, none is left, but
+        // the robot has seen the place from elsewhere; blocked twice, it looks around twice.
+        let mut c = Controller::new(origin, Latency::None, DriveLimits::default());
+        for i in (0..=20).chain((0..20).rev()) {
+            let x = 0.05 * f64::from(i);
+            c.moved(Pose2 { x, ..origin });
+        }
+        assert!(c.trail.length() < 1e-9);
+        for time in [40.0, 46.0] {
+            c.take(blocked(), time, origin, origin, think(0.0, 0.0), 0.0);
+            let (look, _) = c.pending.clone().expect("a look around");
+            assert!(turned(&look) < std::f64::consts::PI, "at {time} s");
+        }
     }
 
     /// A planner whose own grid boxes in a place the robot just drove to (AG-SLAM under a

@@ -96,6 +96,23 @@ impl Schedule {
         }
     }
 
+    /// A whole turn in place, at least 360 degrees, held to its end: what a robot blocked
+    /// again at its spawn does, where it has no trail to retrace. A look around turns 155
+    /// degrees, and between two of them the plans turn the robot back toward its target, so
+    /// looks around alone can sweep the same sector for ever while the floor every
+    /// candidate must cross lies unseen on the other side (robustness-as-is, warehouse_02,
+    /// RT-GuIDE spawn 3: stuck at its spawn after 8 looks around in 47 s).
+    pub fn full_turn(start: f64, limits: &DriveLimits) -> Self {
+        let rate = limits.max_turn;
+        let ticks = (std::f64::consts::TAU / (rate * RECOVERY_TICK)).ceil() as usize;
+        Schedule {
+            start,
+            period: RECOVERY_TICK,
+            commands: vec![UnicycleCommand { v: 0.0, w: rate }; ticks],
+            commit: f64::INFINITY,
+        }
+    }
+
     /// When the last command ends.
     pub fn end(&self) -> f64 {
         self.start + self.period * self.commands.len() as f64
