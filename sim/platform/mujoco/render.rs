@@ -6,7 +6,25 @@ use super::sys;
 use super::{Data, Model};
 use crate::egl::{EglContext, GlFlush};
 use crate::error::{Result, SimError};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, MutexGuard};
+
+/// The process's one lock on MuJoCo's OpenGL calls where the C side needs one.
+/// `mjr_makeContext` runs MuJoCo's OpenGL loader (glad), whose function table and extension
+/// list are process-wide C globals written on every call, so every renderer is made under
+/// it. On a software renderer every draw and read-back is made under it too: Mesa's llvmpipe
+/// (22.3, the CI machine's) crashed inside `mjr_render` in one thread while a second thread's
+/// context read pixels (two closed-loop tests side by side, SIGSEGV in swrast_dri.so; all
+/// other threads idle). The lock guards C state, not ours; a GPU driver renders its contexts
+/// side by side unlocked.
+static GL_CALLS: Mutex<()> = Mutex::new(());
+
+/// Waits for [`GL_CALLS`] (a panic elsewhere while holding it leaves no C state half-done
+/// that the next call could trip on, so a poisoned lock is taken as is).
+fn lock_gl_calls() -> MutexGuard<'static, ()> {
+    GL_CALLS
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
 
 /// Rendering features of the sensor; all off by default because they cost 10x on llvmpipe
 /// and a real depth camera sees none of them.
@@ -48,10 +66,13 @@ pub struct SceneRenderer {
     rgb_scratch: Vec<u8>,
     /// glFlush, to start a segmentation pass drawing before its pixels are read.
     flush: Option<GlFlush>,
+    /// Whether draws and read-backs take [`GL_CALLS`] (a software renderer).
+    serialised: bool,
 }
 
 impl Drop for SceneRenderer {
     fn drop(&mut self) {
+        let _turn = self.gl_turn();
         // SAFETY: scene and context were made by mjv_makeScene/mjr_makeContext and are freed
         // once; the owner keeps the GL context alive longer than this renderer.
         unsafe {
@@ -82,14 +103,9 @@ impl SceneRenderer {
                 ),
             });
         }
-        // mjr_makeContext runs MuJoCo's OpenGL loader (glad), whose function table and
-        // extension list are process-wide C globals written on every call: cameras made on
-        // several threads at once (parallel tests, a library user's parallel episodes) take
-        // turns. The lock guards C state, not ours; nothing else shares it.
-        static GL_LOADER: Mutex<()> = Mutex::new(());
-        let _loader = GL_LOADER
-            .lock()
-            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        // Cameras made on several threads at once (parallel tests, a library user's
+        // parallel episodes) take turns in MuJoCo's OpenGL loader.
+        let _loader = lock_gl_calls();
         // SAFETY: mjvScene, mjrContext, mjvOption, mjvCamera and mjvPerturb are plain C structs
         // that their mj*_default* functions fully initialise; make* allocate against a valid
         // model while the caller's GL context is current (the `gl` borrow).
@@ -134,6 +150,7 @@ impl SceneRenderer {
                 height,
                 rgb_scratch: vec![0; (width * height * 3) as usize],
                 flush: gl.gl_flush(),
+                serialised: gl.is_software(),
             })
         }
     }
@@ -146,6 +163,12 @@ impl SceneRenderer {
     /// Image height in pixels.
     pub fn height(&self) -> u32 {
         self.height
+    }
+
+    /// This renderer's turn at OpenGL: [`GL_CALLS`] held on a software renderer, nothing
+    /// on a GPU.
+    fn gl_turn(&self) -> Option<MutexGuard<'static, ()>> {
+        self.serialised.then(lock_gl_calls)
     }
 
     fn viewport(&self) -> sys::mjrRect {
@@ -226,6 +249,7 @@ impl SceneRenderer {
                 detail: format!("need {} RGB bytes and {pixels} depths", 3 * pixels),
             });
         }
+        let _turn = self.gl_turn();
         self.draw(data, camera);
         // SAFETY: buffer sizes were checked against the viewport above.
         unsafe {
@@ -263,6 +287,7 @@ impl SceneRenderer {
     /// segmentation colours, flushed so the renderer draws it while the caller works on;
     /// [`SceneRenderer::read_segmentation`] reads it.
     pub fn start_segmentation(&mut self) {
+        let _turn = self.gl_turn();
         let segment = sys::mjtRndFlag::mjRND_SEGMENT as usize;
         let idcolor = sys::mjtRndFlag::mjRND_IDCOLOR as usize;
         self.scene.flags[segment] = 1;
@@ -280,6 +305,7 @@ impl SceneRenderer {
     /// Reads the segmentation [`SceneRenderer::start_segmentation`] drew: each pixel's code
     /// (bottom-to-top rows) and, indexed by code, the geom it shows (-1: nothing, or no geom).
     pub fn read_segmentation(&mut self) -> (impl Iterator<Item = usize> + '_, Vec<i32>) {
+        let turn = self.gl_turn();
         // SAFETY: the scratch buffer holds W*H*3 bytes; no depth is requested.
         unsafe {
             sys::mjr_readPixels(
@@ -289,6 +315,7 @@ impl SceneRenderer {
                 self.context.as_ref(),
             )
         };
+        drop(turn);
         // The colour encodes 1 + the index into the scene's geom list.
         let geom_of_code: Vec<i32> = std::iter::once(-1)
             .chain(self.scene_geoms().iter().map(|g| {
