@@ -1102,7 +1102,7 @@ fn every_planner_fails_with_a_recovery_when_it_starts_inside_an_obstacle() {
         }
         match decision {
             Decision::Fail(f @ PlanFailure::StartInCollision { away }) => {
-                assert_eq!(f.recovery(), Recovery::BackOff, "{name}");
+                assert_eq!(f.recovery(), Recovery::BackOff { away }, "{name}");
                 assert!(
                     (away.abs() - std::f64::consts::PI).abs() < 0.5,
                     "{name}: away {away}"
@@ -1159,7 +1159,7 @@ fn a_schedule_holds_for_its_commitment_and_recoveries_to_their_end() {
     let held = Schedule::from_plan(&plan(f64::INFINITY), 10.0);
     assert!(held.holding_at(14.99) && !held.holding_at(15.0));
     let limits = DriveLimits::default();
-    let back_off = Schedule::recovery(Recovery::BackOff, 3.0, 0.0, Some(1.0), &limits);
+    let back_off = Schedule::recovery(Recovery::BackOff { away: 1.0 }, 3.0, 0.0, &limits);
     assert!(back_off.holding_at(back_off.end() - 1e-6) && !back_off.holding_at(back_off.end()));
     assert!(back_off.commands.iter().all(|c| limits.admits(*c)));
     // The back-off turns to the heading given, then drives 0.15 m that way.

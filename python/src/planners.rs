@@ -116,7 +116,7 @@ impl PlanFailure {
     fn recovery(&self) -> &'static str {
         match self.failure.recovery() {
             Recovery::TurnInPlace => "turn_in_place",
-            Recovery::BackOff => "back_off",
+            Recovery::BackOff { .. } => "back_off",
         }
     }
 

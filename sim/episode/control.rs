@@ -272,12 +272,8 @@ impl Controller {
         if let Some(retrace) = self.blocked_again(failure, start_pose, start) {
             return retrace;
         }
-        let away = match failure {
-            PlanFailure::StartInCollision { away } => Some(*away),
-            _ => None,
-        };
         let (heading, limits) = (start_pose.theta, &self.limits);
-        Schedule::recovery(failure.recovery(), start, heading, away, limits)
+        Schedule::recovery(failure.recovery(), start, heading, limits)
     }
 
     /// A retrace of the trail from `start_pose`, counted, and the look around it answers
@@ -316,7 +312,7 @@ impl Controller {
                      TurnInPlace"
                 );
                 let (heading, limits) = (start_pose.theta, &self.limits);
-                Schedule::recovery(Recovery::TurnInPlace, start, heading, None, limits)
+                Schedule::recovery(Recovery::TurnInPlace, start, heading, limits)
             }
         }
     }

@@ -128,19 +128,25 @@ pub enum PlanFailure {
 }
 
 /// What the host should do after a failure.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Recovery {
     /// Spin on the spot to see more.
     TurnInPlace,
-    /// Turn away from what the robot touches and drive off a little, then replan.
-    BackOff,
+    /// Turn to `away` (world heading, radians) and drive off a little, then replan. The
+    /// drive is unchecked, so it always carries the heading the start check found clear:
+    /// there is no back-off without one (a blind "half round" drove into what the robot had
+    /// last turned its back on).
+    BackOff {
+        /// The heading to drive off along.
+        away: f64,
+    },
 }
 
 impl PlanFailure {
     /// The recovery the planner suggests.
     pub fn recovery(&self) -> Recovery {
         match self {
-            PlanFailure::StartInCollision { .. } => Recovery::BackOff,
+            PlanFailure::StartInCollision { away } => Recovery::BackOff { away: *away },
             _ => Recovery::TurnInPlace,
         }
     }

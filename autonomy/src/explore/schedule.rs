@@ -48,18 +48,11 @@ impl Schedule {
         }
     }
 
-    /// The recovery manoeuvres: a look around (turn in place) or a back-off. The unicycle
-    /// cannot reverse, so backing off turns in place to `away` (half round when not known)
-    /// and drives a little that way, unchecked: give it a heading the map says is clear
-    /// (`executor::escape_heading`). Half round is blind, into whatever the robot last turned
-    /// its back on; the host retraces its trail instead where it has no heading.
-    pub fn recovery(
-        kind: Recovery,
-        start: f64,
-        heading: f64,
-        away: Option<f64>,
-        limits: &DriveLimits,
-    ) -> Self {
+    /// The recovery manoeuvres from a robot facing `heading`: a look around (turn in place)
+    /// or a back-off. The unicycle cannot reverse, so backing off turns in place to its
+    /// `away` and drives a little that way, unchecked: the heading the map says is clear
+    /// (`executor::escape_heading`).
+    pub fn recovery(kind: Recovery, start: f64, heading: f64, limits: &DriveLimits) -> Self {
         let turn_rate = limits.max_turn;
         let ticks = |seconds: f64| (seconds / RECOVERY_TICK).round() as usize;
         let commands = match kind {
@@ -70,9 +63,8 @@ impl Schedule {
                 };
                 ticks(LOOK_AROUND)
             ],
-            Recovery::BackOff => {
-                let target = away.unwrap_or(heading + std::f64::consts::PI);
-                let diff = wrap_angle(target - heading);
+            Recovery::BackOff { away } => {
+                let diff = wrap_angle(away - heading);
                 let mut c = vec![
                     UnicycleCommand {
                         v: 0.0,
