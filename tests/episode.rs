@@ -423,7 +423,7 @@ impl autonomy::explore::Planner for TurnsItsBackThenStands {
         _map: &autonomy::map::GaussianMap,
         start: autonomy::drive::Pose2,
     ) -> autonomy::explore::Decision {
-        use autonomy::drive::{advance, wrap_angle, UnicycleCommand};
+        use autonomy::drive::{wrap_angle, UnicycleCommand};
         const STOP_AT: f64 = 1.0;
         if self.phase == Phase::Approach && start.x >= STOP_AT - 0.02 {
             self.phase = Phase::TurnAround;
@@ -444,13 +444,11 @@ impl autonomy::explore::Planner for TurnsItsBackThenStands {
             },
             Phase::Stand => UnicycleCommand { v: 0.0, w: 0.0 },
         };
-        let commands = vec![command; 10];
-        let mut states = vec![start];
-        for u in &commands {
-            let last = *states.last().expect("the start");
-            states.push(advance(&last, u, 0.1));
-        }
-        autonomy::explore::Decision::Go(autonomy::explore::Plan::unsearched(commands, 0.1, states))
+        autonomy::explore::Decision::Go(autonomy::explore::Plan::driven(
+            start,
+            vec![command; 10],
+            0.1,
+        ))
     }
 }
 
@@ -552,7 +550,7 @@ impl autonomy::explore::Planner for BlockedUntilItSeesItsFarSide {
         map: &autonomy::map::GaussianMap,
         start: autonomy::drive::Pose2,
     ) -> autonomy::explore::Decision {
-        use autonomy::drive::{advance, wrap_angle, UnicycleCommand};
+        use autonomy::drive::{wrap_angle, UnicycleCommand};
         use autonomy::explore::{Decision, Plan, PlanFailure};
         self.free = self.free || Self::sees_far_side(map);
         let command = if self.free {
@@ -575,13 +573,7 @@ impl autonomy::explore::Planner for BlockedUntilItSeesItsFarSide {
                 w: error.clamp(-0.6, 0.6),
             }
         };
-        let commands = vec![command; 10];
-        let mut states = vec![start];
-        for u in &commands {
-            let last = *states.last().expect("the start");
-            states.push(advance(&last, u, 0.1));
-        }
-        Decision::Go(Plan::unsearched(commands, 0.1, states))
+        Decision::Go(Plan::driven(start, vec![command; 10], 0.1))
     }
 }
 

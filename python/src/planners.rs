@@ -339,7 +339,6 @@ impl PythonPlanner {
                 commands.len()
             )));
         }
-        let mut states = vec![start];
         let mut drive = Vec::with_capacity(commands.len());
         for (v, w) in commands {
             let u = UnicycleCommand { v, w };
@@ -349,11 +348,9 @@ impl PythonPlanner {
                     limits.max_forward, limits.max_turn
                 )));
             }
-            let last = states[states.len() - 1];
-            states.push(autonomy::drive::advance(&last, &u, period));
             drive.push(u);
         }
-        Ok(Decision::Go(RustPlan::unsearched(drive, period, states)))
+        Ok(Decision::Go(RustPlan::driven(start, drive, period)))
     }
 
     fn fail(&self, e: PyErr) -> Decision {

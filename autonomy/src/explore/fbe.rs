@@ -13,7 +13,7 @@ use super::executor::{CollisionEngine, Executor, ExecutorConfig};
 use super::frontier::{self, Cluster};
 use super::unseen::UnseenGuard;
 use super::{Decision, Observation, Plan, Planner};
-use crate::drive::{advance, wrap_angle, Pose2, UnicycleCommand};
+use crate::drive::{wrap_angle, Pose2, UnicycleCommand};
 use crate::map::GaussianMap;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -349,21 +349,10 @@ pub fn look_around(start: Pose2, max_turn: f64, period: f64) -> Plan {
         v: 0.0,
         w: std::f64::consts::TAU / (steps as f64 * period),
     };
-    let mut states = vec![start];
-    for _ in 0..steps {
-        let last = states[states.len() - 1];
-        states.push(advance(&last, &u, period));
-    }
     Plan {
-        commands: vec![u; steps],
-        period,
-        states,
-        target: None,
         guidance: vec![[start.x, start.y]],
-        score: 0.0,
-        candidates: 1,
-        alternatives: Vec::new(),
         commit: f64::INFINITY,
+        ..Plan::driven(start, vec![u; steps], period)
     }
 }
 

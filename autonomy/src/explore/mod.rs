@@ -75,6 +75,20 @@ impl Plan {
             commit: 0.0,
         }
     }
+
+    /// An unsearched plan that drives `commands` from `start`, one per `period` seconds:
+    /// its states are the unicycle model's (what a scripted or outside planner gives
+    /// without a search of its own).
+    pub fn driven(start: Pose2, commands: Vec<UnicycleCommand>, period: f64) -> Self {
+        let mut states = Vec::with_capacity(commands.len() + 1);
+        states.push(start);
+        let mut at = start;
+        for u in &commands {
+            at = crate::drive::advance(&at, u, period);
+            states.push(at);
+        }
+        Plan::unsearched(commands, period, states)
+    }
 }
 
 /// What a planner answers when asked for a plan.
