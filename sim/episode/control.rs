@@ -32,10 +32,9 @@ pub struct Controller {
     stuck: StuckWatch,
     /// The way the robot came, for a retrace.
     trail: Trail,
-    /// Where the episode began, and whether the robot has since been further than
-    /// [`StuckWatch::ESCAPE`] from there: until it has, a plan blocked again gets a full turn.
-    spawn: Pose2,
-    left_spawn: bool,
+    /// Where the episode began, until the robot has been further than [`StuckWatch::ESCAPE`]
+    /// from there (then `None`): while it is known, a plan blocked again gets a full turn.
+    at_spawn: Option<Pose2>,
     /// Where the last look around for a blocked plan (every primitive collides or passes
     /// near unseen space) began: blocked again there, the robot retraces its trail instead.
     looked_at: Option<Pose2>,
@@ -87,8 +86,7 @@ impl Controller {
             progress: ProgressWatch::new(pose),
             stuck: StuckWatch::new(pose),
             trail: Trail::new(pose),
-            spawn: pose,
-            left_spawn: false,
+            at_spawn: Some(pose),
             looked_at: None,
             recent_plans: VecDeque::from([0.0]),
             failures: BTreeMap::new(),
@@ -152,8 +150,11 @@ impl Controller {
     /// Takes in the robot's pose after a physics step: the trail a retrace follows back.
     pub fn moved(&mut self, pose: Pose2) {
         self.trail.push(pose);
-        self.left_spawn =
-            self.left_spawn || pose.distance([self.spawn.x, self.spawn.y]) > StuckWatch::ESCAPE;
+        if let Some(spawn) = self.at_spawn {
+            if pose.distance([spawn.x, spawn.y]) > StuckWatch::ESCAPE {
+                self.at_spawn = None;
+            }
+        }
     }
 
     /// Whether the robot made no progress for a while: the planner is overruled by a back-off.
@@ -353,9 +354,8 @@ impl Controller {
             return None;
         }
         let Some(schedule) = self.retrace_trail(start_pose, start) else {
-            if self.left_spawn {
-                return None;
-            }
+            // Once it has left its spawn: a look around, remembered, as anywhere else.
+            self.at_spawn?;
             tracing::info!(
                 "t = {start:.1} s: blocked again after a look around at ({:.2}, {:.2}), at the \
                  spawn with no trail to retrace; turning a full circle",

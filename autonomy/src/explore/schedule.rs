@@ -27,6 +27,11 @@ pub const BACK_OFF_DISTANCE: f64 = 0.15;
 /// Forward speed of a back-off, m/s.
 const BACK_OFF_SPEED: f64 = 0.3;
 
+/// `ticks` recovery ticks turning in place at `rate` rad/s (a look around, a full turn).
+fn turning(rate: f64, ticks: usize) -> Vec<UnicycleCommand> {
+    vec![UnicycleCommand { v: 0.0, w: rate }; ticks]
+}
+
 impl Schedule {
     /// Standing still from `start`.
     pub fn idle(start: f64) -> Self {
@@ -56,13 +61,7 @@ impl Schedule {
         let turn_rate = limits.max_turn;
         let ticks = |seconds: f64| (seconds / RECOVERY_TICK).round() as usize;
         let commands = match kind {
-            Recovery::TurnInPlace => vec![
-                UnicycleCommand {
-                    v: 0.0,
-                    w: turn_rate
-                };
-                ticks(LOOK_AROUND)
-            ],
+            Recovery::TurnInPlace => turning(turn_rate, ticks(LOOK_AROUND)),
             Recovery::BackOff { away } => {
                 let diff = wrap_angle(away - heading);
                 let mut c = vec![
@@ -80,6 +79,11 @@ impl Schedule {
                 c
             }
         };
+        Self::held(start, commands)
+    }
+
+    /// A manoeuvre of `commands`, one per recovery tick from `start`, held to its end.
+    fn held(start: f64, commands: Vec<UnicycleCommand>) -> Self {
         Schedule {
             start,
             period: RECOVERY_TICK,
@@ -97,12 +101,7 @@ impl Schedule {
     pub fn full_turn(start: f64, limits: &DriveLimits) -> Self {
         let rate = limits.max_turn;
         let ticks = (std::f64::consts::TAU / (rate * RECOVERY_TICK)).ceil() as usize;
-        Schedule {
-            start,
-            period: RECOVERY_TICK,
-            commands: vec![UnicycleCommand { v: 0.0, w: rate }; ticks],
-            commit: f64::INFINITY,
-        }
+        Self::held(start, turning(rate, ticks))
     }
 
     /// When the last command ends.
